@@ -1,0 +1,57 @@
+"""`iblcheck render`: one scene, one renderer -> OUT.exr (RGBA float32) + OUT.png + a JSON line."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from scenes import imageio
+from scenes.render import Render
+from scenes.tonemap import adaptation_luminance, to_uint8, tonemap
+
+from .cli import UsageError, load_scene
+
+
+def render_with(renderer: str, scene) -> Render:
+    if renderer == "realtime":
+        import realtime
+
+        return realtime.render(scene)
+    if renderer == "reference":
+        import groundtruth
+
+        return groundtruth.render(scene)
+    import groundtruth.quadrature
+
+    return groundtruth.quadrature.render(scene)
+
+
+def write_outputs(out: Path, scene, result: Render) -> None:
+    """OUT.exr with R, G, B, A (A = coverage mask) and OUT.png, tone-mapped like the metrics."""
+    out.parent.mkdir(parents=True, exist_ok=True)
+    imageio.write_exr(out, result.rgb, alpha=result.mask.astype(np.float32))
+    tm = scene.tonemap
+    lum = adaptation_luminance(scene.environment.radiance())
+    srgb = tonemap(result.rgb, tm.key, tm.white, tm.exposure, lum)
+    write_png(out.with_suffix(".png"), to_uint8(srgb))
+
+
+def write_png(path: Path, rgb8: np.ndarray) -> None:
+    import matplotlib.image
+
+    matplotlib.image.imsave(str(path), rgb8)
+
+
+def run(args: argparse.Namespace) -> int:
+    scene = load_scene(args.scene, args.set)
+    out = Path(args.out or f"{scene.name}-{args.renderer}.exr")
+    if out.suffix.lower() != ".exr":
+        raise UsageError(f"-o {out}: the output must be an .exr file")
+    result = render_with(args.renderer, scene)
+    write_outputs(out, scene, result)
+    print(json.dumps({"scene": scene.name, "renderer": args.renderer, "out": str(out),
+                      "timings_ms": result.timings, **{k: v for k, v in result.meta.items() if k in ("variant", "spp", "face_size", "cache")}}))
+    return 0

@@ -1,0 +1,498 @@
+"""The scene model: TOML file -> validated, frozen dataclasses (design.md section 5).
+
+Everything is checked on load. Each bad value raises `SceneError` with a message of the form
+
+    <file>: <key> = <value>: <what is allowed>
+
+`with_overrides({"realtime.lod_bias": 2})` returns a new, re-validated scene; string values are
+parsed as TOML literals first, so `--set realtime.lod_bias=2` works from the CLI. Keys into the
+object list take an index or `*` (all objects): `objects.0.material.exponent`, `objects.*.scale`.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field
+from functools import cached_property
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from . import environments, meshes
+from .camera import Camera
+from .errors import InputError, SceneError
+
+BUILTIN_PREFIX = "builtin:"
+MATERIAL_TYPES = ("diffuse", "phong", "blend")
+EFFECTS = ("diffuse", "glossy", "fresnel", "occlusion", "interreflection")
+
+
+# --------------------------------------------------------------------------- dataclasses
+
+
+@dataclass(frozen=True)
+class Material:
+    type: str = "diffuse"
+    kd: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    ks: tuple[float, float, float] = (1.0, 1.0, 1.0)
+    exponent: float = 100.0
+    f0: float = 0.04
+
+    @property
+    def has_diffuse(self) -> bool:
+        return self.type in ("diffuse", "blend") and max(self.kd) > 0
+
+    @property
+    def has_glossy(self) -> bool:
+        return self.type in ("phong", "blend") and max(self.ks) > 0
+
+
+@dataclass(frozen=True)
+class SceneObject:
+    shape: str = "sphere"  # builtin name or an absolute path to .obj/.ply
+    translate: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    scale: float = 1.0
+    resolution: int | None = None
+    material: Material = field(default_factory=Material)
+
+    @cached_property
+    def mesh(self) -> meshes.Mesh:
+        """The object's triangles in world space (the same arrays both renderers draw)."""
+        if self.shape in meshes.BUILTIN_MESHES:
+            base = meshes.builtin(self.shape, self.resolution)
+        else:
+            base = meshes.load_file(self.shape)
+        return base.transformed(self.scale, self.rotate_deg, self.translate)
+
+
+@dataclass(frozen=True)
+class Environment:
+    map: str = "builtin:uffizi"  # "builtin:NAME" or an absolute path
+    rotation_deg: float = 0.0
+    scale: float = 1.0
+    params: tuple[tuple[str, float], ...] = ()
+
+    @property
+    def builtin_name(self) -> str | None:
+        return self.map[len(BUILTIN_PREFIX):] if self.map.startswith(BUILTIN_PREFIX) else None
+
+    def radiance(self, sanitize: bool = False) -> np.ndarray:
+        """The map's (H, W, 3) float32 radiance times `scale` (rotation is applied at lookup)."""
+        from . import envmap
+
+        name = self.builtin_name
+        arr = environments.builtin(name, dict(self.params)) if name else envmap.read(self.map, sanitize=sanitize)
+        return arr if self.scale == 1.0 else (arr * np.float32(self.scale)).astype(np.float32)
+
+
+@dataclass(frozen=True)
+class ToneMap:
+    key: float = 0.18
+    white: float = 4.0
+    exposure: float = 0.0
+
+
+@dataclass(frozen=True)
+class Realtime:
+    base_size: int = 256
+    face_size: int | str = 64
+    lod_bias: float = 0.0
+    lod_mapping: str = "paper"
+    sh_window: str = "none"
+    rotate_deg_per_frame: float = 0.0
+    timing_frames: int = 30
+    warmup_frames: int = 5
+
+
+@dataclass(frozen=True)
+class Reference:
+    spp: int = 1024
+    seed: int = 0
+    integrator: str = "auto"
+    model: str = "paper"
+    max_depth: int = 16
+
+
+@dataclass(frozen=True)
+class Gate:
+    min_psnr: float | None = None
+    min_ssim: float | None = None
+    max_flip: float | None = None
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    environment: Environment
+    camera: Camera
+    objects: tuple[SceneObject, ...]
+    tonemap: ToneMap
+    realtime: Realtime
+    reference: Reference
+    gate: Gate
+    path: str = ""  # where it was loaded from ("builtin:NAME" or a file path)
+    source: dict = field(default_factory=dict, repr=False, compare=False)  # the raw TOML tree
+
+    @cached_property
+    def effects(self) -> frozenset[str]:
+        """The effects this scene needs (design.md section 4), derived, never written by hand."""
+        out = set()
+        if any(o.material.has_diffuse for o in self.objects):
+            out.add("diffuse")
+        if any(o.material.has_glossy for o in self.objects):
+            out.add("glossy")
+        if any(o.material.type == "blend" for o in self.objects):
+            out.add("fresnel")
+        if len(self.objects) > 1 or any(not o.mesh.convex for o in self.objects):
+            out |= {"occlusion", "interreflection"}
+        return frozenset(out)
+
+    def with_overrides(self, overrides: dict[str, Any]) -> Scene:
+        """A new scene with dotted keys replaced, re-validated. Paths are taken as given or
+        relative to the working directory."""
+        tree = copy.deepcopy(self.source)
+        for key, value in overrides.items():
+            if isinstance(value, str):
+                value = parse_literal(value)
+            if key in ("environment.map",) or key.endswith(".shape"):
+                value = _cwd_path(value)
+            _set_dotted(tree, key.split("."), value, key, self.path)
+        return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
+
+    def _base_dir(self) -> Path:
+        return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent
+
+    def to_dict(self) -> dict:
+        """The full normalised configuration (every default filled in), JSON-serialisable."""
+        d = asdict(self)
+        d.pop("source", None)
+        d["environment"]["params"] = dict(self.environment.params)
+        d["effects"] = sorted(self.effects)
+        return d
+
+
+# --------------------------------------------------------------------------- schema
+
+Check = tuple[str, Any]  # (kind, argument)
+
+
+def _num(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False, integer: bool = False):
+    lb = "(" if lo_open else "["
+    rb = ")" if hi_open else "]"
+    text = f"{'an integer' if integer else 'a number'} in {lb}{lo:g}, {hi:g}{rb}"
+
+    def check(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and not isinstance(v, int)):
+            return None
+        if not math.isfinite(v):
+            return None
+        if (v < lo or v > hi) or (lo_open and v == lo) or (hi_open and v == hi):
+            return None
+        return int(v) if integer else float(v)
+
+    return check, text
+
+
+def _pow2(lo: int, hi: int, allow_auto: bool = False):
+    text = f"a power of two in [{lo}, {hi}]" + (' or "auto"' if allow_auto else "")
+
+    def check(v):
+        if allow_auto and v == "auto":
+            return v
+        if isinstance(v, bool) or not isinstance(v, int) or v < lo or v > hi or v & (v - 1):
+            return None
+        return v
+
+    return check, text
+
+
+def _enum(*choices):
+    def check(v):
+        return v if v in choices else None
+
+    return check, "one of " + ", ".join(f'"{c}"' for c in choices)
+
+
+def _vec3(lo: float = -1e6, hi: float = 1e6):
+    text = f"a list of 3 numbers in [{lo:g}, {hi:g}]"
+
+    def check(v):
+        if not isinstance(v, (list, tuple)) or len(v) != 3:
+            return None
+        out = []
+        for x in v:
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x) or not lo <= x <= hi:
+                return None
+            out.append(float(x))
+        return tuple(out)
+
+    return check, text
+
+
+def _string():
+    return (lambda v: v if isinstance(v, str) and v else None), "a non-empty string"
+
+
+SCHEMA: dict[str, dict[str, tuple]] = {
+    "environment": {
+        "map": _string(),
+        "rotation_deg": _num(-1e4, 1e4),
+        "scale": _num(0, 1e9),
+    },
+    "camera": {
+        "origin": _vec3(),
+        "target": _vec3(),
+        "up": _vec3(),
+        "fov_deg": _num(0, 180, lo_open=True, hi_open=True),
+        "width": _num(1, 16384, integer=True),
+        "height": _num(1, 16384, integer=True),
+    },
+    "object": {
+        "shape": _string(),
+        "translate": _vec3(),
+        "rotate_deg": _vec3(-1e4, 1e4),
+        "scale": _num(0, 1e6, lo_open=True),
+        "resolution": _num(2, 1024, integer=True),
+    },
+    "material": {
+        "type": _enum(*MATERIAL_TYPES),
+        "kd": _vec3(0.0, 1.0),
+        "ks": _vec3(0.0, 1.0),
+        "exponent": _num(0, 1e7),
+        "f0": _num(0, 1),
+    },
+    "tonemap": {
+        "key": _num(0, 100, lo_open=True),
+        "white": _num(0, 1e6, lo_open=True),
+        "exposure": _num(-50, 50),
+    },
+    "realtime": {
+        "base_size": _pow2(1, 4096),
+        "face_size": _pow2(1, 4096, allow_auto=True),
+        "lod_bias": _num(-32, 32),
+        "lod_mapping": _enum("paper", "mcguire"),
+        "sh_window": _enum("none", "hanning", "lanczos", "auto"),
+        "rotate_deg_per_frame": _num(-360, 360),
+        "timing_frames": _num(1, 100000, integer=True),
+        "warmup_frames": _num(0, 10000, integer=True),
+    },
+    "reference": {
+        "spp": _num(1, 1 << 24, integer=True),
+        "seed": _num(0, 2**31 - 1, integer=True),
+        "integrator": _enum("auto", "direct", "path"),
+        "model": _enum("paper", "physical"),
+        "max_depth": _num(2, 1000, integer=True),
+    },
+    "gate": {
+        "min_psnr": _num(-1e3, 1e3),
+        "min_ssim": _num(-1, 1),
+        "max_flip": _num(0, 1),
+    },
+}
+#: keys allowed per material type (the others do not apply and are refused)
+MATERIAL_KEYS = {"diffuse": {"type", "kd"}, "phong": {"type", "ks", "exponent"},
+                 "blend": {"type", "kd", "ks", "exponent", "f0"}}
+TOP_KEYS = {"name", "environment", "camera", "objects", "tonemap", "realtime", "reference", "gate"}
+
+
+# --------------------------------------------------------------------------- loading
+
+
+def load(path_or_builtin: str | Path) -> Scene:
+    """Load and validate a scene: a TOML file path or `builtin:NAME`."""
+    text_path = str(path_or_builtin)
+    if text_path.startswith(BUILTIN_PREFIX):
+        name = text_path[len(BUILTIN_PREFIX):]
+        res = resources.files("scenes").joinpath(f"data/scenes/{name}.toml")
+        if not res.is_file():
+            raise SceneError(f"{text_path}: unknown builtin scene; choose one of {', '.join(builtin_names())}")
+        return _parse_text(res.read_text(), text_path, Path.cwd(), name)
+    path = Path(text_path)
+    if not path.is_file():
+        raise SceneError(f"{path}: scene file not found")
+    return _parse_text(path.read_text(), str(path), path.resolve().parent, path.stem)
+
+
+def builtin_names() -> list[str]:
+    folder = resources.files("scenes").joinpath("data/scenes")
+    return sorted(p.name[:-5] for p in folder.iterdir() if p.name.endswith(".toml"))
+
+
+def _parse_text(text: str, where: str, base_dir: Path, stem: str) -> Scene:
+    try:
+        tree = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(f"{where}: malformed TOML: {exc}") from None
+    return from_dict(tree, where, base_dir, name_default=stem)
+
+
+def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene") -> Scene:
+    """Validate a raw TOML tree. Relative paths resolve against `base_dir`."""
+
+    def fail(key: str, value: Any, allowed: str) -> SceneError:
+        return SceneError(f"{where}: {key} = {value!r}: must be {allowed}")
+
+    if not isinstance(tree, dict):
+        raise SceneError(f"{where}: the scene must be a TOML table")
+    for key in tree:
+        if key not in TOP_KEYS:
+            raise SceneError(f"{where}: {key}: unknown key; allowed: {', '.join(sorted(TOP_KEYS))}")
+
+    def section(name: str, table: Any, schema_name: str | None = None, prefix: str | None = None,
+                allowed_keys: set | None = None) -> dict:
+        schema = SCHEMA[schema_name or name]
+        prefix = prefix or name
+        if table is None:
+            return {}
+        if not isinstance(table, dict):
+            raise SceneError(f"{where}: {prefix} must be a table, got {table!r}")
+        out = {}
+        keys = allowed_keys if allowed_keys is not None else set(schema)
+        for key, value in table.items():
+            if key not in keys:
+                raise SceneError(f"{where}: {prefix}.{key}: unknown key; allowed: {', '.join(sorted(keys))}")
+            if key not in schema:
+                continue
+            check, text = schema[key]
+            checked = check(value)
+            if checked is None:
+                raise fail(f"{prefix}.{key}", value, text)
+            out[key] = checked
+        return out
+
+    name = tree.get("name", name_default)
+    if not isinstance(name, str) or not name:
+        raise fail("name", name, "a non-empty string")
+
+    # environment
+    env_raw = tree.get("environment", {})
+    params = env_raw.get("params", {}) if isinstance(env_raw, dict) else {}
+    env_raw = {k: v for k, v in env_raw.items() if k != "params"} if isinstance(env_raw, dict) else env_raw
+    env = section("environment", env_raw)
+    env_map = env.get("map", Environment.map)
+    if env_map.startswith(BUILTIN_PREFIX):
+        try:
+            resolved = environments.resolve_params(env_map[len(BUILTIN_PREFIX):], params)
+        except SceneError as exc:
+            raise SceneError(f"{where}: environment.map = {env_map!r}: {exc}") from None
+        env["params"] = tuple(sorted(resolved.items()))
+    else:
+        if params:
+            raise SceneError(f"{where}: environment.params: only builtin environments take parameters")
+        p = Path(env_map)
+        p = p if p.is_absolute() else (base_dir / p)
+        if not p.is_file():
+            raise SceneError(f"{where}: environment.map = {env_map!r}: file not found ({p})")
+        if p.suffix.lower() not in (".exr", ".hdr", ".pfm"):
+            raise fail("environment.map", env_map, "a builtin name or an .exr, .hdr or .pfm file")
+        env["map"] = str(p)
+    environment = Environment(**env)
+
+    # camera
+    cam = Camera(**section("camera", tree.get("camera", {})))
+    view = np.subtract(cam.target, cam.origin)
+    if np.linalg.norm(view) < 1e-9:
+        raise SceneError(f"{where}: camera.target = {list(cam.target)}: must differ from camera.origin")
+    if np.linalg.norm(np.cross(view / np.linalg.norm(view), cam.up)) < 1e-6:
+        raise SceneError(f"{where}: camera.up = {list(cam.up)}: must not be zero or parallel to the view direction")
+
+    # objects
+    objs_raw = tree.get("objects", [{}])
+    if not isinstance(objs_raw, list) or not objs_raw:
+        raise fail("objects", objs_raw, "a non-empty array of tables ([[objects]])")
+    objects = []
+    for i, raw in enumerate(objs_raw):
+        prefix = f"objects[{i}]"
+        if not isinstance(raw, dict):
+            raise SceneError(f"{where}: {prefix} must be a table")
+        mat_raw = raw.get("material", {})
+        rest = {k: v for k, v in raw.items() if k != "material"}
+        obj = section("object", rest, prefix=prefix)
+        mat_type = mat_raw.get("type", "diffuse") if isinstance(mat_raw, dict) else None
+        if mat_type not in MATERIAL_TYPES:
+            raise fail(f"{prefix}.material.type", mat_type, _enum(*MATERIAL_TYPES)[1])
+        mat = section("material", mat_raw, prefix=f"{prefix}.material", allowed_keys=MATERIAL_KEYS[mat_type])
+        defaults = {"diffuse": {"ks": (0.0, 0.0, 0.0)}, "phong": {"kd": (0.0, 0.0, 0.0)}, "blend": {}}[mat_type]
+        obj["material"] = Material(**{**defaults, **mat})
+        shape = obj.get("shape", "sphere")
+        if shape not in meshes.BUILTIN_MESHES:
+            p = Path(shape)
+            p = p if p.is_absolute() else base_dir / p
+            if p.suffix.lower() not in (".obj", ".ply"):
+                raise fail(f"{prefix}.shape", shape, f"one of {', '.join(meshes.BUILTIN_MESHES)} or an .obj/.ply path")
+            if not p.is_file():
+                raise SceneError(f"{where}: {prefix}.shape = {shape!r}: file not found ({p})")
+            obj["shape"] = str(p)
+        objects.append(SceneObject(**obj))
+
+    realtime = Realtime(**section("realtime", tree.get("realtime", {})))
+    fs = realtime.face_size
+    if fs != "auto" and fs > realtime.base_size:
+        raise fail("realtime.face_size", fs, f"at most realtime.base_size = {realtime.base_size}")
+
+    scene = Scene(
+        name=name,
+        environment=environment,
+        camera=cam,
+        objects=tuple(objects),
+        tonemap=ToneMap(**section("tonemap", tree.get("tonemap", {}))),
+        realtime=realtime,
+        reference=Reference(**section("reference", tree.get("reference", {}))),
+        gate=Gate(**section("gate", tree.get("gate", {}))),
+        path=where,
+        source=copy.deepcopy(tree),
+    )
+    try:  # load geometry now so a bad mesh file is reported at load time, naming the scene
+        for obj in scene.objects:
+            obj.mesh  # noqa: B018
+    except InputError as exc:
+        raise SceneError(f"{where}: {exc}") from None
+    return scene
+
+
+# --------------------------------------------------------------------------- overrides
+
+
+def parse_literal(text: str) -> Any:
+    """A CLI value as a TOML literal (2 -> int, 2.5 -> float, [1,2,3] -> list, true -> bool);
+    anything that is not a literal is kept as a string."""
+    try:
+        return tomllib.loads(f"v = {text}")["v"]
+    except tomllib.TOMLDecodeError:
+        return text
+
+
+def _cwd_path(value: Any) -> Any:
+    if isinstance(value, str) and not value.startswith(BUILTIN_PREFIX) and value not in meshes.BUILTIN_MESHES:
+        return str(Path(value).resolve())
+    return value
+
+
+def _set_dotted(tree: dict, parts: list[str], value: Any, key: str, where: str) -> None:
+    node: Any = tree
+    for i, part in enumerate(parts[:-1]):
+        if part == "objects":
+            objs = node.setdefault("objects", [{}])
+            if i + 1 >= len(parts) - 1:
+                raise SceneError(f"{where}: override {key}: say which object (objects.0.KEY or objects.*.KEY)")
+            sel = parts[i + 1]
+            targets = objs if sel == "*" else None
+            if targets is None:
+                if not sel.isdigit() or int(sel) >= len(objs):
+                    raise SceneError(f"{where}: override {key}: no object {sel!r} (the scene has {len(objs)})")
+                targets = [objs[int(sel)]]
+            for t in targets:
+                _set_dotted(t, parts[i + 2:], value, key, where)
+            return
+        nxt = node.get(part)
+        if nxt is None:
+            nxt = node[part] = {}
+        if not isinstance(nxt, dict):
+            raise SceneError(f"{where}: override {key}: {part} is not a table")
+        node = nxt
+    node[parts[-1]] = value

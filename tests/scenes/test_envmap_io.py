@@ -1,0 +1,108 @@
+"""HDR file I/O: round trips, channel order, Mitsuba's own reader as a second opinion, bad files."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scenes import EnvMapError, envmap, imageio
+
+
+@pytest.fixture
+def hdr_image(rng):
+    # values spanning 1e-3 .. 1e4, the range of a real probe
+    return (10.0 ** rng.uniform(-3, 4, size=(16, 32, 3))).astype(np.float32)
+
+
+def test_exr_float_round_trip_is_exact(tmp_path, hdr_image):
+    envmap.write(tmp_path / "a.exr", hdr_image)
+    np.testing.assert_array_equal(envmap.read(tmp_path / "a.exr"), hdr_image)
+
+
+def test_half_exr_with_bgr_channel_order(tmp_path, hdr_image):
+    import OpenEXR
+
+    half = hdr_image.astype(np.float16)
+    channels = {"B": half[..., 2].copy(), "G": half[..., 1].copy(), "R": half[..., 0].copy(),
+                "A": np.ones(half.shape[:2], np.float16)}
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, channels) as f:
+        f.write(str(tmp_path / "bgr.exr"))
+    out = envmap.read(tmp_path / "bgr.exr")
+    assert out.dtype == np.float32
+    np.testing.assert_array_equal(out, half.astype(np.float32))  # R stays R though stored last
+
+
+@pytest.mark.parametrize("rle", [True, False], ids=["rle", "flat"])
+def test_hdr_round_trip_within_rgbe_precision(tmp_path, hdr_image, rle):
+    imageio.write_hdr(tmp_path / "a.hdr", hdr_image, rle=rle)
+    out = envmap.read(tmp_path / "a.hdr")
+    # RGBE keeps an 8-bit mantissa relative to the largest channel: error <= 2^-8 of the max
+    tol = hdr_image.max(axis=-1, keepdims=True) * 2.0**-7
+    assert np.all(np.abs(out - hdr_image) <= tol)
+
+
+def test_hdr_old_style_rle(tmp_path):
+    # one scanline of 4 pixels: a pixel then an old-style run (1, 1, 1, 3) repeating it 3 times
+    body = bytes([128, 64, 32, 129]) + bytes([1, 1, 1, 3])
+    (tmp_path / "old.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 1 +X 4\n" + body)
+    out = imageio.read_hdr(tmp_path / "old.hdr")
+    # 128 * 2^(129 - 136) = 1.0, 64 -> 0.5, 32 -> 0.25 (Ward's RGBE decoding)
+    np.testing.assert_array_equal(out[0], np.tile([1.0, 0.5, 0.25], (4, 1)))
+
+
+@pytest.mark.mitsuba
+def test_hdr_reader_agrees_with_mitsuba_bitmap(mi):
+    from tests.conftest import PROBE_DIR
+
+    ours = envmap.read(PROBE_DIR / "uffizi.hdr")
+    theirs = np.array(mi.Bitmap(str(PROBE_DIR / "uffizi.hdr")).convert(
+        mi.Bitmap.PixelFormat.RGB, mi.Struct.Type.Float32, srgb_gamma=False))
+    assert ours.shape == theirs.shape == (128, 256, 3)
+    np.testing.assert_allclose(ours, theirs, rtol=1e-6, atol=0)
+
+
+def test_pfm_round_trip(tmp_path, hdr_image):
+    imageio.write_pfm(tmp_path / "a.pfm", hdr_image)
+    np.testing.assert_array_equal(envmap.read(tmp_path / "a.pfm"), hdr_image)
+
+
+@pytest.mark.parametrize("suffix,payload,words", [
+    (".exr", b"v/1\x01garbage", "OpenEXR"),
+    (".hdr", b"P6\n1 1\n255\n\x00\x00\x00", "Radiance"),
+    (".hdr", b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 4 +X 4\n\x10\x10", "truncated"),
+    (".pfm", b"PF\n4 4\n-1.0\n\x00\x00", "truncated"),
+    (".jpg", b"\xff\xd8", "unsupported"),
+])
+def test_corrupt_files_give_clear_errors(tmp_path, suffix, payload, words):
+    path = tmp_path / f"bad{suffix}"
+    path.write_bytes(payload)
+    with pytest.raises(EnvMapError, match=words) as err:
+        envmap.read(path)
+    assert str(path) in str(err.value)
+
+
+def test_truncated_exr(tmp_path, hdr_image):
+    envmap.write(tmp_path / "a.exr", hdr_image)
+    data = (tmp_path / "a.exr").read_bytes()
+    (tmp_path / "cut.exr").write_bytes(data[: len(data) // 2])
+    with pytest.raises(EnvMapError, match="cut.exr"):
+        envmap.read(tmp_path / "cut.exr")
+
+
+def test_invalid_pixels_refused_with_count_and_position(tmp_path, hdr_image):
+    bad = hdr_image.copy()
+    bad[3, 5, 1] = np.nan
+    bad[7, 0, 0] = -1.0
+    bad[9, 9, 2] = np.inf
+    envmap.write(tmp_path / "bad.exr", bad)
+    with pytest.raises(EnvMapError, match=r"3 invalid .* row 3, column 5, channel G"):
+        envmap.read(tmp_path / "bad.exr")
+    with pytest.warns(envmap.SanitizedWarning, match="replaced 3"):
+        fixed = envmap.read(tmp_path / "bad.exr", sanitize=True)
+    assert np.isfinite(fixed).all() and fixed.min() >= 0 and fixed[3, 5, 1] == 0
+
+
+def test_too_large_is_refused_before_reading(tmp_path, hdr_image):
+    envmap.write(tmp_path / "a.exr", hdr_image)
+    with pytest.raises(EnvMapError, match="too large"):
+        envmap.read(tmp_path / "a.exr", max_pixels=100)

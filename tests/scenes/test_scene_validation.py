@@ -1,0 +1,187 @@
+"""Every validation rule of the scene format (design.md section 5) names the file and the key."""
+
+from __future__ import annotations
+
+import pytest
+
+import scenes
+from scenes import SceneError
+from tests.helpers import write_scene
+
+BASE = """
+[camera]
+origin = [0.0, 0.0, 4.0]
+[[objects]]
+shape = "sphere"
+material = { type = "blend", kd = [0.8, 0.8, 0.8], ks = [1.0, 1.0, 1.0], exponent = 100.0, f0 = 0.04 }
+"""
+
+BAD = [
+    # (extra or replaced TOML, key the message must name, words it must contain)
+    ("[environment]\nscale = -1.0", "environment.scale", "[0, 1e+09]"),
+    ("[environment]\nmap = \"builtin:nowhere\"", "nowhere", "uffizi"),
+    ("[environment]\nmap = \"missing.exr\"", "environment.map", "not found"),
+    ("[environment]\nmap = \"builtin:sky\"\nparams = { sun = 1e7 }", "environment.params.sun", "1e+06"),
+    ("[environment]\nmap = \"builtin:sky\"\nparams = { moon = 1 }", "environment.params.moon", "sun"),
+    ("[environment]\ncolour = 1", "environment.colour", "unknown key"),
+    ("[tonemap]\nkey = 0.0", "tonemap.key", "(0, 100]"),
+    ("[tonemap]\nwhite = \"bright\"", "tonemap.white", "a number"),
+    ("[realtime]\nbase_size = 100", "realtime.base_size", "power of two"),
+    ("[realtime]\nface_size = 48", "realtime.face_size", "power of two"),
+    ("[realtime]\nbase_size = 64\nface_size = 128", "realtime.face_size", "base_size"),
+    ("[realtime]\nlod_mapping = \"linear\"", "realtime.lod_mapping", '"paper"'),
+    ("[realtime]\nsh_window = \"gauss\"", "realtime.sh_window", '"lanczos"'),
+    ("[reference]\nspp = 0", "reference.spp", "integer"),
+    ("[reference]\nspp = 1.5", "reference.spp", "integer"),
+    ("[reference]\nintegrator = \"bdpt\"", "reference.integrator", '"path"'),
+    ("[reference]\nmodel = \"ggx\"", "reference.model", '"physical"'),
+    ("[gate]\nmin_ssim = 2.0", "gate.min_ssim", "[-1, 1]"),
+    ("[gate]\nmax_psnr = 2.0", "gate.max_psnr", "unknown key"),
+    ("extra = 1", "extra", "unknown key"),
+]
+
+
+@pytest.mark.parametrize("snippet,key,words", BAD, ids=[b[1] for b in BAD])
+def test_bad_value_names_file_and_key(tmp_path, snippet, key, words):
+    path = write_scene(tmp_path, snippet + "\n" + BASE)
+    with pytest.raises(SceneError) as err:
+        scenes.load(path)
+    msg = str(err.value)
+    assert str(path) in msg and key in msg and words in msg, msg
+
+
+BAD_CAMERA = [
+    ("fov_deg = 0.0", "camera.fov_deg"),
+    ("fov_deg = 180.0", "camera.fov_deg"),
+    ("width = 0", "camera.width"),
+    ("height = 2.5", "camera.height"),
+    ("origin = [0.0, 1.0]", "camera.origin"),
+    ("up = [0.0, 0.0, 1.0]", "camera.up"),  # parallel to the view direction (origin on +Z)
+    ("target = [0.0, 0.0, 4.0]", "camera.target"),  # equal to the origin
+]
+
+
+@pytest.mark.parametrize("line,key", BAD_CAMERA, ids=[b[0] for b in BAD_CAMERA])
+def test_bad_camera(tmp_path, line, key):
+    text = f"[camera]\norigin = [0.0, 0.0, 4.0]\n{line}\n" if "origin" not in line else f"[camera]\n{line}\n"
+    path = write_scene(tmp_path, text)
+    with pytest.raises(SceneError, match=key.replace(".", r"\.")):
+        scenes.load(path)
+
+
+BAD_MATERIAL = [
+    ('{ type = "blend", exponent = -1.0 }', "material.exponent"),
+    ('{ type = "blend", f0 = 1.5 }', "material.f0"),
+    ('{ type = "diffuse", kd = [0.5, 0.5, 2.0] }', "material.kd"),
+    ('{ type = "phong", ks = [-0.1, 0.5, 0.5] }', "material.ks"),
+    ('{ type = "diffuse", exponent = 10.0 }', "material.exponent"),  # does not apply to diffuse
+    ('{ type = "metal" }', "material.type"),
+]
+
+
+@pytest.mark.parametrize("material,key", BAD_MATERIAL, ids=[b[1] + str(i) for i, b in enumerate(BAD_MATERIAL)])
+def test_bad_material(tmp_path, material, key):
+    path = write_scene(tmp_path, f"[[objects]]\nshape = \"sphere\"\nmaterial = {material}\n")
+    with pytest.raises(SceneError, match=r"objects\[0\]\." + key.replace(".", r"\.")):
+        scenes.load(path)
+
+
+@pytest.mark.parametrize("line,key", [
+    ('shape = "cube"', "objects[0].shape"),
+    ('shape = "mesh.obj"', "objects[0].shape"),
+    ("scale = 0.0", "objects[0].scale"),
+    ("translate = [0.0, 0.0]", "objects[0].translate"),
+    ("resolution = 1", "objects[0].resolution"),
+])
+def test_bad_object(tmp_path, line, key):
+    path = write_scene(tmp_path, f"[[objects]]\n{line}\n")
+    with pytest.raises(SceneError) as err:
+        scenes.load(path)
+    assert key in str(err.value) and str(path) in str(err.value)
+
+
+def test_malformed_toml_names_file(tmp_path):
+    path = write_scene(tmp_path, "[camera\norigin = ")
+    with pytest.raises(SceneError, match="malformed TOML"):
+        scenes.load(path)
+
+
+def test_missing_file():
+    with pytest.raises(SceneError, match="not found"):
+        scenes.load("/nonexistent/scene.toml")
+
+
+def test_defaults_and_name_from_stem(tmp_path):
+    scene = scenes.load(write_scene(tmp_path, "", name="plain.toml"))
+    assert scene.name == "plain"
+    assert scene.environment.map == "builtin:uffizi"
+    assert scene.camera.fov_deg == 30.0 and (scene.camera.width, scene.camera.height) == (256, 256)
+    assert scene.realtime.face_size == 64 and scene.reference.spp == 1024
+    assert scene.objects[0].material.type == "diffuse"
+
+
+def test_env_path_relative_to_scene_file(tmp_path):
+    from scenes import envmap, environments
+
+    sub = tmp_path / "maps"
+    sub.mkdir()
+    envmap.write(sub / "c.exr", environments.builtin("constant"))
+    scene_dir = tmp_path / "scenes"
+    scene_dir.mkdir()
+    path = write_scene(scene_dir, '[environment]\nmap = "../maps/c.exr"\n')
+    scene = scenes.load(path)
+    assert scene.environment.map == str((scene_dir / "../maps/c.exr"))
+    assert scene.environment.radiance().shape == (32, 64, 3)
+
+
+def test_overrides_convert_types_and_revalidate():
+    scene = scenes.load("builtin:sphere-blend")
+    s2 = scene.with_overrides({"realtime.lod_bias": "2", "realtime.face_size": "auto",
+                               "objects.*.material.exponent": "10", "tonemap.key": 0.5})
+    assert s2.realtime.lod_bias == 2.0 and isinstance(s2.realtime.lod_bias, float)
+    assert s2.realtime.face_size == "auto"
+    assert s2.objects[0].material.exponent == 10.0
+    assert s2.tonemap.key == 0.5
+    assert scene.realtime.lod_bias == 0.0  # the original is unchanged
+    with pytest.raises(SceneError, match=r"realtime\.face_size"):
+        scene.with_overrides({"realtime.face_size": "48"})
+    with pytest.raises(SceneError, match=r"realtime\.bias"):
+        scene.with_overrides({"realtime.bias": "1"})
+
+
+def test_override_path_is_relative_to_cwd(tmp_path, monkeypatch):
+    from scenes import envmap, environments
+
+    envmap.write(tmp_path / "c.exr", environments.builtin("constant"))
+    monkeypatch.chdir(tmp_path)
+    scene = scenes.load("builtin:sphere-diffuse").with_overrides({"environment.map": "c.exr"})
+    assert scene.environment.map == str(tmp_path / "c.exr")
+
+
+@pytest.mark.parametrize("name,expected", [
+    ("sphere-blend", {"diffuse", "glossy", "fresnel"}),
+    ("sphere-diffuse", {"diffuse"}),
+    ("sphere-phong", {"glossy"}),
+    ("torus-phong", {"glossy", "occlusion", "interreflection"}),
+    ("bowl-diffuse", {"diffuse", "occlusion", "interreflection"}),
+    ("teapot-blend", {"diffuse", "glossy", "fresnel", "occlusion", "interreflection"}),
+])
+def test_effects_follow_the_scene(name, expected):
+    assert scenes.load(f"builtin:{name}").effects == frozenset(expected)
+
+
+def test_effects_two_convex_objects_occlude(tmp_path):
+    text = "[[objects]]\nshape = \"sphere\"\n[[objects]]\nshape = \"sphere\"\ntranslate = [2.5, 0.0, 0.0]\n"
+    assert {"occlusion", "interreflection"} <= scenes.load(write_scene(tmp_path, text)).effects
+
+
+def test_effects_black_diffuse_is_no_diffuse(tmp_path):
+    text = '[[objects]]\nmaterial = { type = "blend", kd = [0.0, 0.0, 0.0], ks = [1.0, 1.0, 1.0] }\n'
+    assert scenes.load(write_scene(tmp_path, text)).effects == frozenset({"glossy", "fresnel"})
+
+
+def test_every_builtin_scene_loads():
+    names = scenes.builtin_names()
+    assert {"sphere-diffuse", "sphere-phong", "sphere-blend", "teapot-blend", "torus-phong", "bowl-diffuse"} <= set(names)
+    envs = {scenes.load(f"builtin:{n}").environment.map for n in names}
+    assert len(envs) >= 4  # under different builtin environments

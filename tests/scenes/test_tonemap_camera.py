@@ -1,0 +1,71 @@
+"""Tone mapping against hand-computed values; the camera's axes, rows and vertical fov."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from scenes import environments, tonemap
+from scenes.camera import Camera
+
+
+def test_reinhard_hand_values():
+    # key 0.18, L_avg 1, white 4: L = 1 -> L_m = 0.18 -> 0.18 (1 + 0.18/16) / 1.18 = 0.15425847...
+    assert tonemap.reinhard(1.0, 0.18, 4.0, 0.0, 1.0) == pytest.approx(0.18 * 1.01125 / 1.18, rel=1e-12)
+    # at the white point the output is exactly 1; beyond it, clamped to 1
+    assert tonemap.reinhard(4.0 / 0.18, 0.18, 4.0, 0.0, 1.0) == pytest.approx(1.0, rel=1e-12)
+    assert tonemap.reinhard(1e3, 0.18, 4.0, 0.0, 1.0) == 1.0
+    # one stop of exposure doubles L_m: L = 1, exposure 1 -> L_m = 0.36 -> 0.36 (1 + 0.36/16) / 1.36
+    assert tonemap.reinhard(1.0, 0.18, 4.0, 1.0, 1.0) == pytest.approx(0.36 * 1.0225 / 1.36, rel=1e-12)
+
+
+def test_srgb_hand_values():
+    # linear segment below 0.0031308, 1.055 x^(1/2.4) - 0.055 above (IEC 61966-2-1)
+    assert tonemap.srgb_encode(0.002) == pytest.approx(0.02584, rel=1e-12)
+    assert tonemap.srgb_encode(0.5) == pytest.approx(0.7353569830524495, rel=1e-9)
+    assert tonemap.srgb_encode(1.0) == pytest.approx(1.0)
+
+
+def test_tonemap_monotone_and_finite_at_extremes():
+    x = np.concatenate([[0.0], np.logspace(-8, 9, 2000), [1e30, np.inf]])
+    y = tonemap.tonemap(x, 0.18, 4.0, 0.0, 0.5)
+    assert np.isfinite(y).all() and y[0] == 0.0 and y[-1] == 1.0
+    assert (np.diff(y.astype(np.float64)) >= 0).all()
+
+
+def test_adaptation_luminance_of_constant_map():
+    # log-average of a constant radiance 1 map: exp(log(1 + delta)) = 1 + delta
+    env = environments.builtin("constant")
+    assert tonemap.adaptation_luminance(env) == pytest.approx(1.0 + tonemap.LOG_DELTA, rel=1e-9)
+    assert tonemap.adaptation_luminance(env, scale=0.0) == pytest.approx(tonemap.LOG_DELTA, rel=1e-9)
+
+
+def test_camera_rows_top_first_and_vertical_fov():
+    cam = Camera(origin=(0, 0, 4), target=(0, 0, 0), up=(0, 1, 0), fov_deg=60.0, width=200, height=100)
+    rays = cam.pixel_rays()
+    # row 0 looks up (+Y), column 0 looks left (-X): right-handed, +Y up, looking down -Z
+    assert rays[0, 100, 1] > 0 and rays[-1, 100, 1] < 0
+    assert rays[50, 0, 0] < 0 and rays[50, -1, 0] > 0
+    # the vertical field of view: the top edge of the image is 30 degrees above the axis
+    top_edge = np.degrees(np.arctan2(np.tan(np.radians(30)) * (1 - 1 / 100), 1))
+    assert np.degrees(np.arctan2(rays[0, 100, 1], -rays[0, 100, 2])) == pytest.approx(top_edge, abs=0.3)
+    # project() inverts pixel_rays
+    pts = np.asarray(cam.origin) + 3.0 * rays[[0, 10, 99], [0, 150, 199]]
+    np.testing.assert_allclose(cam.project(pts), [[0.5, 0.5], [150.5, 10.5], [199.5, 99.5]], atol=1e-9)
+
+
+def test_gl_matrices_agree_with_project():
+    cam = Camera(origin=(1.0, 2.0, 3.0), target=(0.1, -0.2, 0.3), fov_deg=40.0, width=64, height=48)
+    p = np.array([0.3, 0.1, -0.2, 1.0])
+    clip = cam.projection_matrix(0.1, 100.0) @ cam.view_matrix() @ p
+    ndc = clip[:3] / clip[3]
+    # OpenGL: NDC y up, window row 0 at the bottom; iblcheck rows are top first
+    expected = [(ndc[0] + 1) / 2 * 64, (1 - ndc[1]) / 2 * 48]
+    np.testing.assert_allclose(cam.project(p[:3]), expected, atol=1e-9)
+
+
+@pytest.mark.mitsuba
+def test_mitsuba_to_world_equals_mitsubas_look_at(mi):
+    cam = Camera(origin=(1.0, 2.0, 3.0), target=(0.1, -0.2, 0.3), up=(0.0, 1.0, 0.2))
+    theirs = np.array(mi.ScalarTransform4f().look_at(origin=cam.origin, target=cam.target, up=cam.up).matrix)
+    np.testing.assert_allclose(cam.mitsuba_to_world(), theirs, atol=1e-6)
