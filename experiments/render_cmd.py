@@ -52,6 +52,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"-o {out}: the output must be an .exr file")
     result = render_with(args.renderer, scene)
     write_outputs(out, scene, result)
+    extra = {k: v for k, v in result.meta.items() if k in ("variant", "spp", "face_size", "cache")}
     print(json.dumps({"scene": scene.name, "renderer": args.renderer, "out": str(out),
-                      "timings_ms": result.timings, **{k: v for k, v in result.meta.items() if k in ("variant", "spp", "face_size", "cache")}}))
+                      "timings_ms": result.timings, **extra}))
     return 0

@@ -72,7 +72,7 @@ def direction_to_face(d: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
     ax = np.abs(d)
     x, y, z = d[..., 0], d[..., 1], d[..., 2]
     major = np.argmax(ax, axis=-1)
-    face = np.where(major == 0, np.where(x >= 0, 0, 1), np.where(major == 1, np.where(y >= 0, 2, 3), np.where(z >= 0, 4, 5)))
+    face = np.select([major == 0, major == 1], [np.where(x >= 0, 0, 1), np.where(y >= 0, 2, 3)], np.where(z >= 0, 4, 5))
     m = np.take_along_axis(ax, major[..., None], axis=-1)[..., 0]
     m = np.where(m > 0, m, 1.0)
     # (sc, tc) solved from the table: direction / major = (sc, tc) placed per face

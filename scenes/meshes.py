@@ -287,7 +287,8 @@ def teapot(resolution: int = 12) -> Mesh:
         normals.append(nrm.reshape(-1, 3))
         for i in range(n):
             for j in range(n):
-                a, b_, c, d = base + i * (n + 1) + j, base + i * (n + 1) + j + 1, base + (i + 1) * (n + 1) + j, base + (i + 1) * (n + 1) + j + 1
+                a, c = base + i * (n + 1) + j, base + (i + 1) * (n + 1) + j
+                b_, d = a + 1, c + 1
                 quad = [(a, c, d), (a, d, b_)] if not flip else [(a, d, c), (a, b_, d)]
                 tris += quad
     p = np.concatenate(positions)
@@ -446,7 +447,8 @@ def _load_ply(path: Path) -> Mesh:
             normals = arr[:, [names.index(c) for c in ("nx", "ny", "nz")]] if "nx" in names else None
         elif el["name"] == "face":
             li = next(i for i, p in enumerate(el["props"]) if p[0] == "list")
-            faces = [(poly[0], poly[k], poly[k + 1]) for row in el["rows"] for poly in [row[li]] for k in range(1, len(poly) - 1)]
+            polys = [row[li] for row in el["rows"]]
+            faces = [(poly[0], poly[k], poly[k + 1]) for poly in polys for k in range(1, len(poly) - 1)]
     if verts is None or not faces:
         raise MeshError(f"{path}: PLY needs vertex and face elements")
     return make_mesh(path.stem, verts, np.array(faces, dtype=np.int64), normals=normals)

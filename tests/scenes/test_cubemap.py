@@ -31,7 +31,7 @@ def test_face_centre_and_corners(face):
     size = 2048
     dirs = cubemap.texel_directions(size)[face]
     got = [dirs[0, 0], dirs[0, -1], dirs[-1, 0], dirs[-1, -1]]  # (row t, col s)
-    for g, c in zip(got, corners):
+    for g, c in zip(got, corners, strict=True):
         np.testing.assert_allclose(g, np.array(c) * S3, atol=2e-3)
 
 

@@ -121,7 +121,7 @@ def test_defaults_and_name_from_stem(tmp_path):
 
 
 def test_env_path_relative_to_scene_file(tmp_path):
-    from scenes import envmap, environments
+    from scenes import environments, envmap
 
     sub = tmp_path / "maps"
     sub.mkdir()
@@ -130,7 +130,7 @@ def test_env_path_relative_to_scene_file(tmp_path):
     scene_dir.mkdir()
     path = write_scene(scene_dir, '[environment]\nmap = "../maps/c.exr"\n')
     scene = scenes.load(path)
-    assert scene.environment.map == str((scene_dir / "../maps/c.exr"))
+    assert scene.environment.map == str(scene_dir / "../maps/c.exr")
     assert scene.environment.radiance().shape == (32, 64, 3)
 
 
@@ -150,7 +150,7 @@ def test_overrides_convert_types_and_revalidate():
 
 
 def test_override_path_is_relative_to_cwd(tmp_path, monkeypatch):
-    from scenes import envmap, environments
+    from scenes import environments, envmap
 
     envmap.write(tmp_path / "c.exr", environments.builtin("constant"))
     monkeypatch.chdir(tmp_path)
@@ -182,6 +182,7 @@ def test_effects_black_diffuse_is_no_diffuse(tmp_path):
 
 def test_every_builtin_scene_loads():
     names = scenes.builtin_names()
-    assert {"sphere-diffuse", "sphere-phong", "sphere-blend", "teapot-blend", "torus-phong", "bowl-diffuse"} <= set(names)
+    required = {"sphere-diffuse", "sphere-phong", "sphere-blend", "teapot-blend", "torus-phong", "bowl-diffuse"}
+    assert required <= set(names)
     envs = {scenes.load(f"builtin:{n}").environment.map for n in names}
     assert len(envs) >= 4  # under different builtin environments

@@ -1,0 +1,245 @@
+"""The paper's method on the GPU (moderngl): per-frame environment filtering and shading.
+
+`EnvironmentFilter` owns the HDR cube map and rebuilds it every frame, as the paper does for
+dynamic lighting: base level from the equirect map (turned about +Y), 2x2 box mip chain written by
+a compute shader (`downsample.comp`, so the filter is exactly the paper's, not the driver's
+choice), SH9 projection of the selected level and the irradiance matrices M (`sh_project.comp`,
+`sh_reduce.comp`). `SceneDrawer` draws the environment behind the objects and shades the objects
+with a program compiled for the scene's effects only.
+
+All textures are 32-bit float: HDR values beyond half-float range (a 1e6 sun) are never stored in
+16-bit formats.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import cache
+from importlib import resources
+
+import moderngl
+import numpy as np
+
+from scenes import cubemap
+from scenes.directions import rotation_y
+
+_INCLUDE = re.compile(r'^#include "([\w.]+)"\s*$', re.M)
+
+
+@cache
+def shader_text(name: str) -> str:
+    return resources.files("realtime").joinpath(f"shaders/{name}").read_text()
+
+
+def shader_source(name: str, defines: tuple[str, ...] = ()) -> str:
+    """A shader's text with `#include "file"` expanded and `#define`s inserted after #version."""
+    text = _INCLUDE.sub(lambda m: shader_text(m.group(1)), shader_text(name))
+    head, _, rest = text.partition("\n")
+    return head + "\n" + "".join(f"#define {d}\n" for d in defines) + rest
+
+
+def mat_bytes(m: np.ndarray) -> bytes:
+    """A numpy (row-major) matrix as a GLSL (column-major) uniform."""
+    return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype="f4").tobytes()
+
+
+def world_to_env(rotation_deg: float) -> np.ndarray:
+    return rotation_y(rotation_deg).T  # inverse of the environment's to_world rotation
+
+
+def groups(n: int, local: int = 8) -> int:
+    return (n + local - 1) // local
+
+
+class EnvironmentFilter:
+    """HDR cube map + mip chain + SH9 of one environment, refiltered on demand."""
+
+    def __init__(self, ctx: moderngl.Context, env: np.ndarray, base_size: int) -> None:
+        self.ctx = ctx
+        self.base_size = base_size
+        self.n_levels = int(math.log2(base_size)) + 1
+        h, w = env.shape[:2]
+        self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
+        self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
+        self.cube = ctx.texture_cube((base_size, base_size), 4, dtype="f4")
+        self.cube.build_mipmaps()  # allocates every level; their contents are written below
+        self.cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        self.fill_prog = ctx.compute_shader(shader_source("env_to_cube.comp"))
+        self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
+        self.sh_prog = ctx.compute_shader(shader_source("sh_project.comp"))
+        self.reduce_prog = ctx.compute_shader(shader_source("sh_reduce.comp"))
+        self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
+        self._solid_angle: dict[int, moderngl.Texture] = {}
+        self._partials: dict[int, moderngl.Buffer] = {}
+
+    # -- per-frame work --------------------------------------------------------------------
+    def fill_base(self, rotation_deg: float) -> None:
+        self.env_tex.use(0)
+        self.fill_prog["env"] = 0
+        self.fill_prog["world_to_env"].write(mat_bytes(world_to_env(rotation_deg)))
+        self.fill_prog["size"] = self.base_size
+        self.cube.bind_to_image(0, read=False, write=True, level=0)
+        self.fill_prog.run(groups(self.base_size), groups(self.base_size), 6)
+        self.ctx.memory_barrier()
+
+    def build_chain(self, down_to_level: int | None = None) -> None:
+        """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""
+        last = self.n_levels - 1 if down_to_level is None else down_to_level
+        for level in range(1, last + 1):
+            size = self.base_size >> level
+            self.cube.bind_to_image(0, read=True, write=False, level=level - 1)
+            self.cube.bind_to_image(1, read=False, write=True, level=level)
+            self.down_prog["dst_size"] = size
+            self.down_prog.run(groups(size), groups(size), 6)
+            self.ctx.memory_barrier()
+
+    def project_sh(self, face_size: int, window=(1.0, 1.0, 1.0)) -> None:
+        level = int(round(math.log2(self.base_size / face_size)))
+        tiles = groups(face_size, 8)
+        n_groups = 6 * tiles * tiles
+        partial = self._partials.get(face_size)
+        if partial is None:
+            partial = self._partials[face_size] = self.ctx.buffer(reserve=n_groups * 9 * 16)
+        tex = self._solid_angle.get(face_size)
+        if tex is None:
+            omega = cubemap.texel_solid_angles(face_size).astype("f4")
+            tex = self.ctx.texture((face_size, face_size), 1, omega.tobytes(), dtype="f4")
+            self._solid_angle[face_size] = tex
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.cube.bind_to_image(0, read=True, write=False, level=level)
+        tex.use(1)
+        self.sh_prog["solid_angle"] = 1
+        self.sh_prog["size"] = face_size
+        partial.bind_to_storage_buffer(1)
+        self.sh_prog.run(tiles, tiles, 6)
+        self.ctx.memory_barrier()
+        self.reduce_prog["n_groups"] = n_groups
+        self.reduce_prog["window"].write(np.asarray(window, dtype="f4").tobytes())
+        self.sh_buffer.bind_to_storage_buffer(2)
+        self.reduce_prog.run(1, 1, 1)
+        self.ctx.memory_barrier()
+
+    # -- read-backs (tests, meta) -----------------------------------------------------------
+    def read_sh(self) -> tuple[np.ndarray, np.ndarray]:
+        """(coeffs (9, 3), M (3, 4, 4)) as last computed on the GPU."""
+        data = np.frombuffer(self.sh_buffer.read(), dtype="f4")
+        M = data[:48].reshape(3, 4, 4).transpose(0, 2, 1)  # column-major storage
+        coeffs = data[48:].reshape(9, 4)[:, :3]
+        return coeffs.astype(np.float64), M.astype(np.float64)
+
+    def read_level(self, level: int) -> np.ndarray:
+        """Faces (6, s, s, 3) of one mip level."""
+        size = self.base_size >> level
+        prog = self.ctx.compute_shader(shader_source("dump_level.comp"))
+        out = self.ctx.buffer(reserve=6 * size * size * 16)
+        self.cube.bind_to_image(0, read=True, write=False, level=level)
+        out.bind_to_storage_buffer(3)
+        prog["size"] = size
+        prog.run(groups(size), groups(size), 6)
+        self.ctx.memory_barrier()
+        arr = np.frombuffer(out.read(), dtype="f4").reshape(6, size, size, 4)[..., :3].copy()
+        out.release()
+        prog.release()
+        return arr
+
+    def release(self) -> None:
+        for obj in [self.env_tex, self.cube, self.fill_prog, self.down_prog, self.sh_prog, self.reduce_prog,
+                    self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
+            obj.release()
+
+
+MATERIAL_CODE = {"diffuse": 0, "phong": 1, "blend": 2}
+
+
+class SceneDrawer:
+    """Draws the environment background and the scene's objects into a float32 RGBA target."""
+
+    def __init__(self, ctx: moderngl.Context, scene, env_filter: EnvironmentFilter) -> None:
+        self.ctx = ctx
+        self.scene = scene
+        self.filter = env_filter
+        cam = scene.camera
+        self.width, self.height = cam.width, cam.height
+        defines = tuple(f"HAS_{e.upper()}" for e in ("diffuse", "glossy", "fresnel") if e in scene.effects)
+        self.defines = defines
+        self.prog = ctx.program(vertex_shader=shader_source("shade.vert"),
+                                fragment_shader=shader_source("shade.frag", defines))
+        self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
+                                   fragment_shader=shader_source("background.frag"))
+        self.bg_vao = ctx.vertex_array(self.bg_prog, [])
+        self.color = ctx.texture((self.width, self.height), 4, dtype="f4")
+        self.depth = ctx.depth_renderbuffer((self.width, self.height))
+        self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        self.objects = []
+        for obj in scene.objects:
+            mesh = obj.mesh
+            vbo = ctx.buffer(np.hstack([mesh.positions, mesh.normals]).astype("f4").tobytes())
+            ibo = ctx.buffer(mesh.indices.astype("i4").tobytes())
+            vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f", "in_position", "in_normal")], index_buffer=ibo)
+            self.objects.append((obj, vbo, ibo, vao))
+        near, far = self._depth_range()
+        self.view_proj = cam.projection_matrix(near, far) @ cam.view_matrix()
+
+    def _depth_range(self) -> tuple[float, float]:
+        origin = np.asarray(self.scene.camera.origin, dtype=np.float64)
+        far = 1.0
+        for obj in self.scene.objects:
+            d = np.linalg.norm(obj.mesh.positions.astype(np.float64) - origin, axis=1)
+            far = max(far, float(d.max()))
+        return far * 1e-4, far * 1.01
+
+    def draw(self, rotation_deg: float, face_size: int) -> None:
+        ctx, rt = self.ctx, self.scene.realtime
+        self.fbo.use()
+        ctx.viewport = (0, 0, self.width, self.height)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        # environment behind everything (alpha 0 = not covered)
+        self.filter.env_tex.use(0)
+        self.bg_prog["env"] = 0
+        self.bg_prog["inv_view_proj"].write(mat_bytes(np.linalg.inv(self.view_proj)))
+        self.bg_prog["world_to_env"].write(mat_bytes(world_to_env(rotation_deg)))
+        self.bg_vao.render(moderngl.TRIANGLES, vertices=3)
+        # objects
+        ctx.enable(moderngl.DEPTH_TEST)
+        p = self.prog
+        self.filter.cube.use(1)
+        self.filter.sh_buffer.bind_to_storage_buffer(2)
+        _set(p, "env_cube", 1)
+        p["view_proj"].write(mat_bytes(self.view_proj))
+        _set(p, "camera_position", tuple(self.scene.camera.origin))
+        base = self.filter.base_size
+        _set(p, "level_lod", math.log2(base / face_size))
+        _set(p, "lod_bias", rt.lod_bias)
+        _set(p, "face_size", float(face_size))
+        _set(p, "max_lod", float(self.filter.n_levels - 1))
+        _set(p, "lod_mapping", 1 if rt.lod_mapping == "mcguire" else 0)
+        for obj, _, _, vao in self.objects:
+            m = obj.material
+            _set(p, "material_type", MATERIAL_CODE[m.type])
+            _set(p, "kd", m.kd)
+            _set(p, "ks", m.ks)
+            _set(p, "exponent", m.exponent)
+            _set(p, "f0", m.f0)
+            vao.render(moderngl.TRIANGLES)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rgb (H, W, 3) float32, mask (H, W) bool), row 0 at the top."""
+        data = np.frombuffer(self.fbo.read(components=4, dtype="f4"), dtype="f4")
+        img = data.reshape(self.height, self.width, 4)[::-1]  # OpenGL row 0 is the bottom
+        return np.ascontiguousarray(img[..., :3]), img[..., 3] > 0.5
+
+    def release(self) -> None:
+        for _, vbo, ibo, vao in self.objects:
+            vao.release()
+            vbo.release()
+            ibo.release()
+        for r in [self.prog, self.bg_prog, self.bg_vao, self.color, self.depth, self.fbo]:
+            r.release()
+
+
+def _set(prog: moderngl.Program, name: str, value) -> None:
+    """Set a uniform if the compiled program kept it (unused ones are optimised away)."""
+    if name in prog:
+        prog[name] = value

@@ -1,0 +1,12 @@
+#version 430
+// Copy one level of the cube map into a buffer (tests and previews read mip levels this way:
+// moderngl's TextureCube.read has no level argument).
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+layout(rgba32f, binding = 0) uniform readonly imageCube src;
+layout(std430, binding = 3) writeonly buffer Out { vec4 texel[]; };
+uniform int size;
+void main() {
+    ivec3 g = ivec3(gl_GlobalInvocationID);
+    if (g.x >= size || g.y >= size) return;
+    texel[(g.z * size + g.y) * size + g.x] = imageLoad(src, g);
+}

@@ -1,0 +1,8 @@
+#version 430
+// One triangle covering the screen; v_ndc is the normalised device coordinate.
+out vec2 v_ndc;
+void main() {
+    vec2 p = vec2(float((gl_VertexID << 1) & 2), float(gl_VertexID & 2)) * 2.0 - 1.0;
+    v_ndc = p;
+    gl_Position = vec4(p, 0.0, 1.0);
+}
