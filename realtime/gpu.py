@@ -22,7 +22,7 @@ import moderngl
 import numpy as np
 
 from scenes import cubemap
-from scenes.directions import rotation_y
+from scenes.directions import direction_to_uv, rotation_y
 
 _INCLUDE = re.compile(r'^#include "([\w.]+)"\s*$', re.M)
 
@@ -69,6 +69,10 @@ class EnvironmentFilter:
         self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
         self.sh_prog = ctx.compute_shader(shader_source("sh_project.comp"))
         self.reduce_prog = ctx.compute_shader(shader_source("sh_reduce.comp"))
+        u, v = direction_to_uv(cubemap.texel_directions(base_size))
+        uv = np.stack([u, v], axis=-1).reshape(6 * base_size, base_size, 2).astype("f4")
+        self.texel_uv = ctx.texture((base_size, 6 * base_size), 2, uv.tobytes(), dtype="f4")
+        self.texel_uv.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
         self._solid_angle: dict[int, moderngl.Texture] = {}
         self._partials: dict[int, moderngl.Buffer] = {}
@@ -76,8 +80,10 @@ class EnvironmentFilter:
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
         self.env_tex.use(0)
+        self.texel_uv.use(1)
         self.fill_prog["env"] = 0
-        self.fill_prog["world_to_env"].write(mat_bytes(world_to_env(rotation_deg)))
+        self.fill_prog["texel_uv"] = 1
+        self.fill_prog["u_shift"] = (rotation_deg / 360.0) % 1.0
         self.fill_prog["size"] = self.base_size
         self.cube.bind_to_image(0, read=False, write=True, level=0)
         self.fill_prog.run(groups(self.base_size), groups(self.base_size), 6)
@@ -146,8 +152,8 @@ class EnvironmentFilter:
         return arr
 
     def release(self) -> None:
-        for obj in [self.env_tex, self.cube, self.fill_prog, self.down_prog, self.sh_prog, self.reduce_prog,
-                    self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
+        for obj in [self.env_tex, self.texel_uv, self.cube, self.fill_prog, self.down_prog, self.sh_prog,
+                    self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
             obj.release()
 
 

@@ -14,13 +14,10 @@ vec3 face_direction(int face, float sc, float tc) {
 
 // Mitsuba's envmap lookup: u = atan2(x, -z) / 2pi, v = acos(y) / pi; bilinear with
 // col = u W - 0.5 (wrapping) and row = v (H - 1) (align-corners). `env` holds rows top first.
-vec3 env_lookup(sampler2D env, vec3 d) {
+vec3 env_lookup_uv(sampler2D env, float u, float v) {
     ivec2 size = textureSize(env, 0);
     int W = size.x, H = size.y;
-    d = normalize(d);
-    float u = (d.x == 0.0 && d.z == 0.0) ? 0.0 : atan(d.x, -d.z) / (2.0 * PI);
     u -= floor(u);
-    float v = acos(clamp(d.y, -1.0, 1.0)) / PI;
     float col = u * float(W) - 0.5;
     float row = v * float(H - 1);
     float c0f = floor(col);
@@ -34,4 +31,10 @@ vec3 env_lookup(sampler2D env, vec3 d) {
     vec3 top = mix(texelFetch(env, ivec2(c0, r0), 0).rgb, texelFetch(env, ivec2(c1, r0), 0).rgb, fc);
     vec3 bottom = mix(texelFetch(env, ivec2(c0, r1), 0).rgb, texelFetch(env, ivec2(c1, r1), 0).rgb, fc);
     return mix(top, bottom, fr);
+}
+
+vec3 env_lookup(sampler2D env, vec3 d) {
+    d = normalize(d);
+    float u = (d.x == 0.0 && d.z == 0.0) ? 0.0 : atan(d.x, -d.z) / (2.0 * PI);
+    return env_lookup_uv(env, u, acos(clamp(d.y, -1.0, 1.0)) / PI);
 }
