@@ -32,8 +32,13 @@ def render(scene) -> Render:
     from .gpu import EnvironmentFilter, SceneDrawer
     from .timing import summarize, timed
 
-    ctx = get_context()
     rt = scene.realtime
+    if rt.sh_window != "none":
+        from scenes import SceneError
+
+        raise SceneError(f"{scene.path}: realtime.sh_window = {rt.sh_window!r}: SH deringing windows are not "
+                         'implemented yet; only "none" is')
+    ctx = get_context()
     effects = scene.effects
     distance = object_distance(scene)
     face_size = levels.select_face_size(rt.face_size, distance, rt.base_size)
