@@ -70,12 +70,23 @@ class Camera:
 
     def pixel_rays(self) -> np.ndarray:
         """Unit world directions (H, W, 3) through every pixel centre, row 0 at the top."""
+        return self.subpixel_rays(1)[:, :, 0]
+
+    def subpixel_rays(self, k: int) -> np.ndarray:
+        """Unit world directions (H, W, k*k, 3) through a k x k grid of points in every pixel.
+
+        Sub-sample (a, b) (row a, column b) of pixel (i, j) sits at ((j + (b + 0.5) / k) / W,
+        (i + (a + 0.5) / k) / H); k = 1 is the pixel centre.
+        """
         right, true_up, forward = self.basis()
         th = np.tan(np.radians(self.fov_deg) / 2.0)
-        x = ((np.arange(self.width) + 0.5) / self.width * 2.0 - 1.0) * th * self.aspect
-        y = (1.0 - (np.arange(self.height) + 0.5) / self.height * 2.0) * th
-        d = forward + x[None, :, None] * right + y[:, None, None] * true_up
-        return normalize(d)
+        off = (np.arange(k) + 0.5) / k
+        cols = (np.arange(self.width)[:, None] + off[None, :]) / self.width  # (W, k)
+        rows = (np.arange(self.height)[:, None] + off[None, :]) / self.height  # (H, k)
+        x = (cols * 2.0 - 1.0) * th * self.aspect
+        y = (1.0 - rows * 2.0) * th
+        d = (forward + x[None, :, None, :, None] * right + y[:, None, :, None, None] * true_up)  # (H, W, k, k, 3)
+        return normalize(d.reshape(self.height, self.width, k * k, 3))
 
     def project(self, points: np.ndarray) -> np.ndarray:
         """Continuous pixel coordinates (..., 2) as (column, row) of world points, row 0 at the top."""
