@@ -20,8 +20,15 @@ def render_with(renderer: str, scene) -> Render:
         import realtime
 
         return realtime.render(scene)
-    # the Mitsuba references arrive with the ground-truth issue
-    raise UsageError(f"'iblcheck render --renderer {renderer}' is not implemented yet")
+    if renderer == "reference":
+        import groundtruth
+
+        return groundtruth.render(scene)
+    if renderer == "quadrature":
+        from groundtruth import quadrature
+
+        return quadrature.render(scene)
+    raise UsageError(f"--renderer {renderer!r}: choose realtime, reference or quadrature")
 
 
 def write_outputs(out: Path, scene, result: Render) -> None:
@@ -47,7 +54,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"-o {out}: the output must be an .exr file")
     result = render_with(args.renderer, scene)
     write_outputs(out, scene, result)
-    extra = {k: v for k, v in result.meta.items() if k in ("variant", "spp", "face_size", "cache")}
+    shown = ("variant", "spp", "seed", "integrator", "model", "face_size", "cache")
+    extra = {k: v for k, v in result.meta.items() if k in shown}
     print(json.dumps({"scene": scene.name, "renderer": args.renderer, "out": str(out),
                       "timings_ms": result.timings, **extra}))
     return 0

@@ -71,15 +71,14 @@ def bsdf_dict(scene, material) -> dict:
 
 def make_mesh(mi, name: str, mesh, bsdf) -> object:
     """An `mi.Mesh` holding exactly the scenes.Mesh arrays (float32 positions and normals)."""
-    import drjit as dr
-
     props = mi.Properties()
     props["bsdf"] = bsdf
     out = mi.Mesh(name, len(mesh.positions), len(mesh.indices), has_vertex_normals=True, props=props)
     params = mi.traverse(out)
-    params["vertex_positions"] = dr.ravel(mi.Point3f(np.ascontiguousarray(mesh.positions.T)))
-    params["vertex_normals"] = dr.ravel(mi.Normal3f(np.ascontiguousarray(mesh.normals.T)))
-    params["faces"] = dr.ravel(mi.Vector3u(np.ascontiguousarray(mesh.indices.T.astype(np.uint32))))
+    # flat, interleaved (x0, y0, z0, x1, ...) buffers of the parameter's own type (JIT or scalar)
+    for key, arr in (("vertex_positions", mesh.positions), ("vertex_normals", mesh.normals),
+                     ("faces", mesh.indices.astype(np.uint32))):
+        params[key] = type(params[key])(np.ascontiguousarray(arr).ravel())
     params.update()
     return out
 

@@ -2,7 +2,7 @@
 
 Used by the quadrature reference: it finds, for every sub-pixel ray, the nearest triangle hit
 (Moller & Trumbore 1997), the hit point and the interpolated vertex normal. Triangles are binned
-into 16 x 16-pixel tiles by their projected bounding boxes, so each ray is tested only against
+into 4 x 4-pixel tiles by their projected bounding boxes, so each ray is tested only against
 the triangles that can cover its tile (a triangle that reaches behind the camera is put in every
 tile).
 """
@@ -15,7 +15,7 @@ import numpy as np
 
 from scenes.directions import normalize
 
-TILE = 16
+TILE = 4
 EPS_T = 1e-7
 
 

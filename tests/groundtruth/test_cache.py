@@ -1,0 +1,101 @@
+"""The reference cache: hits, misses, corruption, concurrency, unwritable folders."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import groundtruth
+from groundtruth import cache
+from tests.groundtruth.common import small
+
+pytestmark = pytest.mark.mitsuba
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.fixture
+def cache_dir(tmp_path, monkeypatch) -> Path:
+    folder = tmp_path / "cache"
+    monkeypatch.setenv("IBLCHECK_CACHE", str(folder))
+    return folder
+
+
+def entries(folder: Path) -> list[Path]:
+    return sorted(folder.glob("*.npz"))
+
+
+def test_second_render_reads_the_cache(cache_dir):
+    scene = small("builtin:sphere-blend", size=32, spp=16)
+    t0 = time.perf_counter()
+    first = groundtruth.render(scene)
+    t1 = time.perf_counter()
+    second = groundtruth.render(scene)
+    t2 = time.perf_counter()
+    assert first.meta["cache"] == "miss" and second.meta["cache"] == "hit"
+    assert t2 - t1 < t1 - t0
+    np.testing.assert_array_equal(first.rgb, second.rgb)
+    np.testing.assert_array_equal(first.mask, second.mask)
+    assert len(entries(cache_dir)) == 1
+
+
+@pytest.mark.parametrize(("overrides", "hit"), [
+    ({"realtime.lod_bias": 2.0}, True),
+    ({"realtime.face_size": 16, "tonemap.key": 0.3}, True),
+    ({"objects.0.material.kd": [0.5, 0.5, 0.5]}, False),
+    ({"reference.spp": 17}, False),
+    ({"reference.seed": 1}, False),
+    ({"environment.rotation_deg": 10.0}, False),
+    ({"camera.fov_deg": 31.0}, False),
+])
+def test_key_holds_what_changes_the_reference_and_nothing_else(cache_dir, overrides, hit):
+    scene = small("builtin:sphere-blend", size=24, spp=16)
+    groundtruth.render(scene)
+    again = groundtruth.render(scene.with_overrides(overrides))
+    assert (again.meta["cache"] == "hit") is hit
+
+
+def test_corrupt_entry_is_rerendered_and_said_so(cache_dir):
+    scene = small("builtin:sphere-diffuse", size=24, spp=16)
+    first = groundtruth.render(scene)
+    (entry,) = entries(cache_dir)
+    data = bytearray(entry.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    entry.write_bytes(bytes(data))
+    with pytest.warns(cache.CacheWarning, match="corrupt"):
+        again = groundtruth.render(scene)
+    assert again.meta["cache"] == "corrupt"
+    np.testing.assert_array_equal(again.rgb, first.rgb)  # same seed, same variant: bit-identical
+    assert groundtruth.render(scene).meta["cache"] == "hit"  # and the entry is whole again
+
+
+def test_two_concurrent_processes_leave_one_valid_entry(cache_dir):
+    code = ("import groundtruth, scenes; s = scenes.load('builtin:sphere-blend').with_overrides("
+            "{'camera.width': 32, 'camera.height': 32, 'reference.spp': 32}); "
+            "print(groundtruth.render(s).meta['cache'])")
+    env = {**os.environ, "IBLCHECK_CACHE": str(cache_dir), "PYTHONPATH": str(ROOT)}
+    procs = [subprocess.Popen([sys.executable, "-c", code], env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                              text=True, cwd=ROOT) for _ in range(2)]
+    outs = [p.communicate(timeout=300) for p in procs]
+    assert all(p.returncode == 0 for p in procs), outs
+    assert sorted(o[0].strip() for o in outs) == ["hit", "miss"]  # the lock made the second one wait
+    assert len(entries(cache_dir)) == 1
+    assert not list(cache_dir.glob("*.tmp"))
+    key = entries(cache_dir)[0].stem
+    assert cache.load(key) is not None
+
+
+def test_unwritable_cache_still_returns_the_render(tmp_path, monkeypatch):
+    """A cache path under a regular file cannot be created, even by root: warn, render anyway."""
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("")
+    monkeypatch.setenv("IBLCHECK_CACHE", str(blocker / "cache"))
+    scene = small("builtin:sphere-diffuse", size=16, spp=4)
+    with pytest.warns(cache.CacheWarning, match="cannot be written"):
+        out = groundtruth.render(scene)
+    assert out.rgb.shape == (16, 16, 3) and out.meta["cache"] == "miss"
