@@ -1,0 +1,8 @@
+"""Experiments: metrics, compare, sweeps, the CI gate, reports and the paper suite; the `iblcheck` CLI.
+
+    experiments.compare(test, reference, scene) -> dict     (design.md section 6)
+"""
+
+from .comparison import compare
+
+__all__ = ["compare"]

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import sys
 import warnings
-from collections.abc import Callable
 
 from scenes import InputError, MissingCapability
 
@@ -45,11 +44,14 @@ def load_scene(spec: str, sets: list[str] | None = None):
     return scene.with_overrides(overrides) if overrides else scene
 
 
-def _not_yet(name: str) -> Callable[[argparse.Namespace], int]:
-    def run(args: argparse.Namespace) -> int:
-        raise UsageError(f"'iblcheck {name}' is not implemented yet")
-
-    return run
+def parse_list(text: str | None, kind: type, flag: str) -> list | None:
+    """'8,16,32' -> [8, 16, 32]; None stays None."""
+    if text is None:
+        return None
+    try:
+        return [kind(x.strip()) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise UsageError(f"{flag} {text!r}: expected a comma-separated list of {kind.__name__} values") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -67,31 +69,37 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("scene")
     c.add_argument("--set", action="append", metavar="K=V")
     c.add_argument("--json", action="store_true")
-    c.set_defaults(func=_not_yet("compare"))
+    c.set_defaults(func=_cmd_compare)
 
     s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
     s.add_argument("scenes", nargs="+")
     s.add_argument("--face-sizes", default="8,16,32,64")
     s.add_argument("--lod-biases", default="-1,0,1,2")
+    s.add_argument("--exponents", help="comma-separated Phong exponents (glossy scenes only)")
+    s.add_argument("--f0s", help="comma-separated f0 values (blend scenes only)")
+    s.add_argument("--envs", help="comma-separated environments (builtin:NAME or files)")
+    s.add_argument("--lod-mappings", help="comma-separated: paper, mcguire (glossy scenes only)")
+    s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
     s.add_argument("--out", default="reports/sweep")
-    s.set_defaults(func=_not_yet("sweep"))
+    s.set_defaults(func=_cmd_sweep)
 
     g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
     g.add_argument("scenes", nargs="+")
     g.add_argument("--min-psnr", type=float)
     g.add_argument("--min-ssim", type=float)
     g.add_argument("--max-flip", type=float)
-    g.add_argument("--junit")
-    g.set_defaults(func=_not_yet("gate"))
+    g.add_argument("--junit", help="write JUnit XML here (one test case per scene)")
+    g.add_argument("--set", action="append", metavar="K=V")
+    g.set_defaults(func=_cmd_gate)
 
     rep = sub.add_parser("report", help="regenerate DIR/index.html from DIR/results.jsonl")
     rep.add_argument("dir")
-    rep.set_defaults(func=_not_yet("report"))
+    rep.set_defaults(func=_cmd_report)
 
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)")
     pa.add_argument("--out", default="reports/paper")
     pa.add_argument("--quick", action="store_true")
-    pa.set_defaults(func=_not_yet("paper"))
+    pa.set_defaults(func=_cmd_paper)
     return p
 
 
@@ -99,6 +107,66 @@ def _cmd_render(args: argparse.Namespace) -> int:
     from . import render_cmd
 
     return render_cmd.run(args)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    import json
+
+    from . import comparison
+
+    scene = load_scene(args.scene, args.set)
+    result = comparison.run(scene).metrics
+    print(json.dumps(result, allow_nan=False) if args.json else comparison.format_table([result]))
+    return EXIT_OK
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import sweep
+
+    axes = sweep.Axes(face_sizes=parse_list(args.face_sizes, int, "--face-sizes"),
+                      lod_biases=parse_list(args.lod_biases, float, "--lod-biases"),
+                      exponents=parse_list(args.exponents, float, "--exponents"),
+                      f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
+                      lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"))
+    rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set))
+    print(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}")
+    return EXIT_OK
+
+
+def _cmd_gate(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import gate
+
+    cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
+    results = gate.run(args.scenes, cli, parse_sets(args.set))
+    print(gate.format_table(results))
+    if args.junit:
+        gate.write_junit(Path(args.junit), results)
+    return EXIT_OK if all(r.passed for r in results) else EXIT_GATE_FAILED
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import report, sweep
+
+    folder = Path(args.dir)
+    if not (folder / sweep.RESULTS).is_file():
+        raise UsageError(f"{folder / sweep.RESULTS}: not found (run `iblcheck sweep --out {folder}` first)")
+    print(report.build(folder))
+    return EXIT_OK
+
+
+def _cmd_paper(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from . import paper
+
+    print(paper.run(Path(args.out), quick=args.quick))
+    return EXIT_OK
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -1,0 +1,383 @@
+"""`iblcheck paper`: the paper-style experiment suite on builtin scenes (the main job).
+
+    E1 diffuse    SH9 from face sizes 8 ... 256: against the reference, against brute-force
+                  irradiance convolution (the quadrature), and SH9's own irradiance error; times.
+    E2 glossy     LOD-bias sweeps for N in {10, 50, 200, 1000} at several face sizes; the best bias
+                  per (N, face size) next to McGuire's formula and the PSNR each reaches.
+    E3 Fresnel    blends for f0 in {0.02, 0.04, 0.5, 1.0}: error against the viewing angle.
+    E4 cost       frame time by effect set and face size, the map turning (refiltered) every frame.
+    E5 reference  spp against noise floor and seconds.
+
+Everything lands in OUT (default reports/paper): results.jsonl (every compared configuration),
+experiments.json (the tables), figures/*.png, index.html and summary.md. `--quick` uses smaller
+images, fewer samples and a coarser grid (under 5 minutes here from a cold cache).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from . import metrics
+from .report import Section
+from .sweep import RESULTS, append_row, read_rows, row_id, run_row
+
+
+@dataclass(frozen=True)
+class Settings:
+    size: int
+    spp: int
+    frames: int
+    e1_faces: tuple[int, ...]
+    e2_faces: tuple[int, ...]
+    e2_biases: tuple[float, ...]
+    e4_faces: tuple[int, ...]
+    e5_spps: tuple[int, ...]
+
+
+QUICK = Settings(size=96, spp=256, frames=10, e1_faces=(8, 16, 32, 64, 128), e2_faces=(32, 128),
+                 e2_biases=(-1.0, 0.0, 1.0, 2.0, 3.0, 4.0), e4_faces=(8, 64, 256), e5_spps=(16, 64, 256))
+FULL = Settings(size=192, spp=1024, frames=30, e1_faces=(8, 16, 32, 64, 128, 256), e2_faces=(16, 32, 64, 128, 256),
+                e2_biases=tuple(np.arange(-1.0, 5.01, 0.5).round(2).tolist()), e4_faces=(8, 16, 32, 64, 128, 256),
+                e5_spps=(16, 64, 256, 1024, 4096))
+EXPONENTS = (10.0, 50.0, 200.0, 1000.0)
+F0S = (0.02, 0.04, 0.5, 1.0)
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def md_table(header: list[str], rows: list[list]) -> str:
+    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+def html_table(header: list[str], rows: list[list]) -> str:
+    head = "".join(f"<th>{h}</th>" for h in header)
+    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
+    return f'<table class="sortable"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
+
+
+def figure_html(path: str, alt: str) -> str:
+    return f'<div class="figs"><img src="{path}" alt="{alt}"></div>'
+
+
+def f2(x) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+class Suite:
+    def __init__(self, out: Path, settings: Settings, progress):
+        self.out, self.s, self.progress = out, settings, progress
+        self.results = out / RESULTS
+        self.done = {r["id"]: r for r in read_rows(self.results)}
+        (out / "figures").mkdir(parents=True, exist_ok=True)
+
+    def base(self) -> dict:
+        return {"camera.width": self.s.size, "camera.height": self.s.size, "reference.spp": self.s.spp,
+                "realtime.timing_frames": self.s.frames, "realtime.warmup_frames": 3}
+
+    def row(self, spec: str, overrides: dict, experiment: str) -> dict:
+        """One compared configuration, resumable through results.jsonl."""
+        ov = {**self.base(), **overrides}
+        rid = row_id(spec, ov)
+        if rid not in self.done:
+            self.done[rid] = run_row(self.out, spec, ov, {"experiment": experiment})
+            append_row(self.results, self.done[rid])
+        self.progress()
+        return self.done[rid]
+
+    # ----------------------------------------------------------------------------- E1
+    def e1(self) -> Section:
+        import scenes
+        from groundtruth import quadrature
+        from realtime import sh
+
+        spec = "builtin:sphere-diffuse"
+        scene = scenes.load(spec).with_overrides(self.base())
+        t0 = time.perf_counter()
+        brute = quadrature.render(scene)
+        brute_s = time.perf_counter() - t0
+        env = scene.environment.radiance()
+        rng = np.random.default_rng(0)
+        normals = rng.normal(size=(4000, 3))
+        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+        t0 = time.perf_counter()
+        exact = math.pi * quadrature.irradiance(quadrature.cell_grid(env, quadrature.DIFFUSE_WIDTH), normals)
+        conv_ms = (time.perf_counter() - t0) * 1e3 / len(normals)
+        rows, table = [], []
+        for s in self.s.e1_faces:
+            r = self.row(spec, {"realtime.face_size": s}, "E1")
+            import realtime
+
+            sc = scenes.load(spec).with_overrides({**self.base(), "realtime.face_size": s,
+                                                   "realtime.timing_frames": 1, "realtime.warmup_frames": 0})
+            coeffs = np.asarray(realtime.render(sc).meta["sh_coeffs"])
+            e_sh = sh.irradiance_from_sh(coeffs, normals)
+            sh_err = float(np.sqrt(np.mean((e_sh - exact) ** 2)) / np.sqrt(np.mean(exact**2)))
+            vs_brute = self._psnr_against(scene, r, brute)
+            rows.append({**r, "sh_rel_rms": sh_err, "psnr_vs_brute": vs_brute})
+            table.append([s, f2(r["psnr"]), f2(r["noise_floor_psnr"]), f2(vs_brute), f"{100 * sh_err:.3f}%",
+                          f2(r["realtime_ms"]["filter"]), f2(r["realtime_ms"]["draw"])])
+        header = ["face size", "PSNR vs reference", "noise floor", "PSNR vs brute force", "SH9 irradiance rel. RMS",
+                  "filter ms", "draw ms"]
+        plt = _plt()
+        fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
+        faces = [r["face_size"] for r in rows]
+        ax[0].plot(faces, [r["psnr"] for r in rows], "o-", label="vs reference")
+        ax[0].plot(faces, [r["psnr_vs_brute"] for r in rows], "s--", label="vs brute-force convolution")
+        ax[0].axhline(rows[0]["noise_floor_psnr"], color="grey", lw=0.8, ls=":", label="reference noise floor")
+        ax[0].set_xscale("log", base=2)
+        ax[0].set_xlabel("face size")
+        ax[0].set_ylabel("PSNR (dB)")
+        ax[0].legend(fontsize=8)
+        ax[1].plot(faces, [100 * r["sh_rel_rms"] for r in rows], "o-")
+        ax[1].set_xscale("log", base=2)
+        ax[1].set_yscale("log")
+        ax[1].set_xlabel("face size")
+        ax[1].set_ylabel("SH9 irradiance error vs exact (% RMS)")
+        for a in ax:
+            a.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        fig.savefig(self.out / "figures/e1_diffuse.png", dpi=90)
+        plt.close(fig)
+        note = (f"Brute-force irradiance convolution (quadrature over a {quadrature.DIFFUSE_WIDTH}-wide cell grid, "
+                f"numpy on the CPU): {brute_s:.1f} s for the whole {self.s.size}x{self.s.size} image, "
+                f"{conv_ms:.3f} ms per normal; SH9 replaces it by a 4x4 matrix per channel.")
+        md = md_table(header, table) + "\n\n" + note
+        return Section("E1 diffuse: SH9 irradiance by face size", html_table(header, table) + f"<p>{note}</p>"
+                       + figure_html("figures/e1_diffuse.png", "E1"), md, ["figures/e1_diffuse.png"])
+
+    def _psnr_against(self, scene, row: dict, other) -> float | None:
+        import realtime
+        import scenes
+
+        sc = scenes.load(row["spec"]).with_overrides({**row["overrides"], "realtime.timing_frames": 1,
+                                                       "realtime.warmup_frames": 0})
+        test = realtime.render(sc)
+        mask = metrics.common_mask(test.mask, other.mask)
+        return metrics.psnr(metrics.display(scene, test.rgb), metrics.display(scene, other.rgb), mask)
+
+    # ----------------------------------------------------------------------------- E2
+    def e2(self) -> Section:
+        from realtime import levels
+
+        spec = "builtin:sphere-phong"
+        table, best = [], {}
+        for n in EXPONENTS:
+            for s in self.s.e2_faces:
+                rows = [self.row(spec, {"objects.*.material.exponent": n, "realtime.face_size": s,
+                                        "realtime.lod_bias": b}, "E2") for b in self.s.e2_biases]
+                mc = self.row(spec, {"objects.*.material.exponent": n, "realtime.face_size": s,
+                                     "realtime.lod_mapping": "mcguire", "realtime.lod_bias": 0.0}, "E2")
+                top = max(rows, key=lambda r: r["psnr"] if r["psnr"] is not None else -1e9)
+                best[(n, s)] = (top, mc, rows)
+                formula = levels.mcguire_offset(s, n)
+                table.append([f"{n:g}", s, f"{top['lod_bias']:g}", f2(top["psnr"]), f"{formula:.2f}", f2(mc["psnr"]),
+                              f2(top["noise_floor_psnr"])])
+        header = ["N", "face size", "best bias (paper mapping)", "PSNR at best", "McGuire offset",
+                  "PSNR with McGuire", "noise floor"]
+        plt = _plt()
+        fig, axes = plt.subplots(1, len(EXPONENTS), figsize=(4 * len(EXPONENTS), 3.4), squeeze=False)
+        for j, n in enumerate(EXPONENTS):
+            ax = axes[0, j]
+            for s in self.s.e2_faces:
+                top, mc, rows = best[(n, s)]
+                ax.plot([r["lod_bias"] for r in rows], [r["psnr"] for r in rows], "o-", ms=3, label=f"{s}²")
+                ax.axvline(levels.mcguire_offset(s, n), color=ax.lines[-1].get_color(), ls=":", lw=0.8)
+            ax.set_title(f"N = {n:g}")
+            ax.set_xlabel("LOD bias (dotted: McGuire offset)")
+            ax.set_ylabel("PSNR (dB)")
+            ax.grid(alpha=0.3)
+            ax.legend(fontsize=7, title="face")
+        fig.tight_layout()
+        fig.savefig(self.out / "figures/e2_glossy.png", dpi=90)
+        plt.close(fig)
+        md = md_table(header, table)
+        return Section("E2 glossy: best LOD bias per exponent and face size", html_table(header, table)
+                       + figure_html("figures/e2_glossy.png", "E2"), md, ["figures/e2_glossy.png"])
+
+    # ----------------------------------------------------------------------------- E3
+    def e3(self) -> Section:
+        import groundtruth
+        import realtime
+        import scenes
+        from groundtruth import raycast
+
+        spec = "builtin:sphere-blend"
+        plt = _plt()
+        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+        table = []
+        edges = np.linspace(0.0, 1.0, 11)
+        for f0 in F0S:
+            r = self.row(spec, {"objects.*.material.f0": f0}, "E3")
+            sc = scenes.load(spec).with_overrides(r["overrides"] | {"realtime.timing_frames": 1,
+                                                                     "realtime.warmup_frames": 0})
+            test, ref = realtime.render(sc), groundtruth.render(sc)
+            mask = metrics.common_mask(test.mask, ref.mask)
+            hits = raycast.cast(sc, 1)
+            cos_nv = np.clip((hits.normal * -hits.direction).sum(-1)[..., 0], 0, 1)
+            err = np.abs(metrics.display(sc, test.rgb) - metrics.display(sc, ref.rgb)).mean(-1)
+            centres, rms = [], []
+            for lo, hi in zip(edges[:-1], edges[1:], strict=True):
+                sel = mask & (cos_nv >= lo) & (cos_nv < hi)
+                if sel.sum() >= 5:
+                    centres.append(math.degrees(math.acos((lo + hi) / 2)))
+                    rms.append(float(np.sqrt(np.mean(err[sel] ** 2))))
+            ax.plot(centres, rms, "o-", label=f"f0 = {f0:g}")
+            grazing = rms[0] if centres and centres[0] > 70 else None
+            table.append([f"{f0:g}", f2(r["psnr"]), f"{r['ssim']:.4f}", "-" if grazing is None else f"{grazing:.4f}",
+                          f"{rms[-1]:.4f}" if rms else "-"])
+        ax.set_xlabel("viewing angle from the normal (degrees)")
+        ax.set_ylabel("RMS display error")
+        ax.set_title("Fresnel blends: error against viewing angle")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(self.out / "figures/e3_fresnel.png", dpi=90)
+        plt.close(fig)
+        header = ["f0", "PSNR", "SSIM", "RMS error at grazing (n.v < 0.1)", "RMS error facing (n.v > 0.9)"]
+        md = md_table(header, table)
+        return Section("E3 Fresnel blends: error against viewing angle", html_table(header, table)
+                       + figure_html("figures/e3_fresnel.png", "E3"), md, ["figures/e3_fresnel.png"])
+
+    # ----------------------------------------------------------------------------- E4
+    def e4(self) -> Section:
+        import realtime
+        import scenes
+        from realtime.display import display_ms
+        from scenes.tonemap import adaptation_luminance
+
+        sets = [("diffuse (SH9)", "builtin:sphere-diffuse", False), ("glossy (phong)", "builtin:sphere-phong", False),
+                ("diffuse + glossy + Fresnel (blend)", "builtin:sphere-blend", False),
+                ("blend + tone mapping", "builtin:sphere-blend", True)]
+        table, series = [], {}
+        for label, spec, tm in sets:
+            for s in self.s.e4_faces:
+                sc = scenes.load(spec).with_overrides({**self.base(), "realtime.face_size": s,
+                                                       "realtime.rotate_deg_per_frame": 1.0,
+                                                       "realtime.timing_frames": max(self.s.frames, 20)})
+                r = realtime.render(sc)
+                total = r.timings["total"]
+                disp = None
+                if tm:
+                    t = sc.tonemap
+                    disp = display_ms(r.rgb, t.key, t.white, t.exposure,
+                                      adaptation_luminance(sc.environment.radiance()),
+                                      frames=max(self.s.frames, 20))["display"]
+                    total += disp
+                series.setdefault(label, []).append((s, total))
+                table.append([label, s, f2(r.timings["filter"]), f2(r.timings["draw"]), f2(disp), f2(total)])
+                self.progress()
+        plt = _plt()
+        fig, ax = plt.subplots(figsize=(6.4, 4.0))
+        for label, pts in series.items():
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
+        ax.set_xscale("log", base=2)
+        ax.set_yscale("log")
+        ax.set_xlabel("face size")
+        ax.set_ylabel("frame time (ms, median)")
+        ax.set_title("Frame time by effect set (map refiltered every frame)")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(self.out / "figures/e4_frame_time.png", dpi=90)
+        plt.close(fig)
+        header = ["effects", "face size", "filter ms", "draw ms", "tone map ms", "total ms"]
+        from realtime.context import renderer_name
+
+        note = (f"{self.s.size}x{self.s.size} pixels, base 256, median of {max(self.s.frames, 20)} frames after "
+                f"warm-up, the environment turned 1 degree per frame; GL: {renderer_name()}.")
+        return Section("E4 frame time by effect set and face size", html_table(header, table) + f"<p>{note}</p>"
+                       + figure_html("figures/e4_frame_time.png", "E4"), md_table(header, table) + "\n\n" + note,
+                       ["figures/e4_frame_time.png"])
+
+    # ----------------------------------------------------------------------------- E5
+    def e5(self) -> Section:
+        import scenes
+        from groundtruth.reference import render, second_seed
+
+        spec = "builtin:sphere-blend"
+        scene = scenes.load(spec).with_overrides(self.base())
+        render(scene, spp=4, use_cache=False)  # compile the kernels outside the timings
+        table, pts = [], []
+        for spp in self.s.e5_spps:
+            a = render(scene, spp=spp, seed=0, use_cache=False)
+            b = render(scene, spp=spp, seed=second_seed(0), use_cache=False)
+            mask = metrics.common_mask(a.mask, b.mask)
+            floor = metrics.noise_floor_psnr(metrics.display(scene, a.rgb), metrics.display(scene, b.rgb), mask)
+            secs = float(np.median([a.timings["render"], b.timings["render"]]) / 1e3)
+            pts.append((spp, floor, secs))
+            table.append([spp, f2(floor), f"{secs:.2f}"])
+            self.progress()
+        plt = _plt()
+        fig, ax = plt.subplots(figsize=(6.0, 3.8))
+        ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label="noise floor")
+        ax.set_xscale("log", base=2)
+        ax.set_xlabel("samples per pixel")
+        ax.set_ylabel("noise floor PSNR (dB)")
+        ax2 = ax.twinx()
+        ax2.plot([p[0] for p in pts], [p[2] for p in pts], "s--", color="tab:red", label="seconds")
+        ax2.set_yscale("log")
+        ax2.set_ylabel("render seconds", color="tab:red")
+        ax.grid(alpha=0.3, which="both")
+        fig.tight_layout()
+        fig.savefig(self.out / "figures/e5_convergence.png", dpi=90)
+        plt.close(fig)
+        from groundtruth.variant import variant_name
+
+        header = ["spp", "noise floor PSNR (dB)", "render s (median of 2)"]
+        note = (f"sphere-blend at {self.s.size}x{self.s.size}, Mitsuba {variant_name()}, uncached. Every 4x spp "
+                "should add 6.02 dB (Monte Carlo noise falls as 1/sqrt(spp)).")
+        return Section("E5 reference convergence", html_table(header, table) + f"<p>{note}</p>"
+                       + figure_html("figures/e5_convergence.png", "E5"), md_table(header, table) + "\n\n" + note,
+                       ["figures/e5_convergence.png"])
+
+
+def count_steps(s: Settings) -> int:
+    return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
+            + 4 * len(s.e4_faces) + len(s.e5_spps))
+
+
+def run(out: Path, quick: bool = False) -> Path:
+    """Run the suite into `out`; returns the path of index.html."""
+    from rich import progress as rp
+
+    from . import report
+
+    settings = QUICK if quick else FULL
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    timings = {}
+    columns = [rp.TextColumn("[bold]paper"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
+               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}")]
+    with rp.Progress(*columns) as progress:
+        task = progress.add_task("", total=count_steps(settings))
+        suite = Suite(out, settings, lambda: progress.advance(task))
+        sections = []
+        for name in ("e1", "e2", "e3", "e4", "e5"):
+            progress.update(task, description=name.upper())
+            t = time.perf_counter()
+            sections.append(getattr(suite, name)())
+            timings[name.upper()] = time.perf_counter() - t
+    total = time.perf_counter() - t0
+    (out / "experiments.json").write_text(json.dumps({"quick": quick, "seconds": timings, "total_s": total,
+                                                      "sections": [s.markdown for s in sections]}, indent=1))
+    rows = [r for r in read_rows(out / RESULTS)]
+    subtitle = (f"{'quick' if quick else 'full'} suite, {settings.size}x{settings.size} pixels, references at "
+                f"{settings.spp} spp; ran in {total / 60:.1f} min (" +
+                ", ".join(f"{k} {v:.0f} s" for k, v in timings.items()) + ")")
+    return report.build(out, title="iblcheck paper suite: Gu et al. 2006 against Mitsuba 3", sections=sections,
+                        rows=rows, subtitle=subtitle)

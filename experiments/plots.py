@@ -1,0 +1,111 @@
+"""Matplotlib figures of sweep rows: accuracy against LOD bias, accuracy against time, cost against size."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
+    """Indices of the points no other point beats in both (less time, higher score), by time."""
+    order = np.lexsort((-scores, times))
+    front, best = [], -np.inf
+    for i in order:
+        if scores[i] > best:
+            front.append(i)
+            best = scores[i]
+    return np.asarray(front, dtype=int)
+
+
+def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
+    """PSNR and SSIM against LOD bias, one line per face size, one column per glossy scene."""
+    glossy = [r for r in rows if "glossy" in r["effects"] and r.get("psnr") is not None]
+    scenes = sorted({r["scene"] for r in glossy})
+    if not scenes:
+        return False
+    plt = _plt()
+    fig, axes = plt.subplots(2, len(scenes), figsize=(4.2 * len(scenes), 6.4), squeeze=False)
+    for j, name in enumerate(scenes):
+        series = defaultdict(list)
+        for r in glossy:
+            if r["scene"] == name:
+                series[r["face_size"]].append((r["lod_bias"], r["psnr"], r["ssim"]))
+        for s in sorted(series):
+            pts = sorted(series[s])
+            b = [p[0] for p in pts]
+            axes[0, j].plot(b, [p[1] for p in pts], marker="o", label=f"{s}²")
+            axes[1, j].plot(b, [p[2] for p in pts], marker="o", label=f"{s}²")
+        axes[0, j].set_title(name)
+        axes[0, j].set_ylabel("PSNR (dB)")
+        axes[1, j].set_ylabel("SSIM")
+        axes[1, j].set_xlabel("LOD bias")
+        axes[0, j].legend(title="face", fontsize=8)
+        for ax in axes[:, j]:
+            ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
+    """PSNR against total frame time, every configuration, the Pareto front marked."""
+    pts = [r for r in rows if r.get("psnr") is not None and r["realtime_ms"].get("total")]
+    if not pts:
+        return False
+    plt = _plt()
+    t = np.array([r["realtime_ms"]["total"] for r in pts])
+    p = np.array([r["psnr"] for r in pts])
+    fig, ax = plt.subplots(figsize=(6.4, 4.4))
+    for name in sorted({r["scene"] for r in pts}):
+        sel = np.array([r["scene"] == name for r in pts])
+        ax.scatter(t[sel], p[sel], s=18, alpha=0.7, label=name)
+    front = pareto_front(t, p)
+    ax.plot(t[front], p[front], color="k", lw=1.2, drawstyle="steps-post", label="Pareto front")
+    ax.set_xscale("log")
+    ax.set_xlabel("frame time, filter + draw (ms, median)")
+    ax.set_ylabel("PSNR (dB)")
+    ax.set_title("What accuracy costs in time")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True
+
+
+def cost_vs_size(rows: list[dict], path: Path) -> bool:
+    """Median filter and draw time against face size, log axes."""
+    by = defaultdict(lambda: {"filter": [], "draw": []})
+    for r in rows:
+        for k in ("filter", "draw"):
+            if r["realtime_ms"].get(k) is not None:
+                by[r["face_size"]][k].append(r["realtime_ms"][k])
+    if not by:
+        return False
+    plt = _plt()
+    sizes = sorted(by)
+    fig, ax = plt.subplots(figsize=(6.0, 4.2))
+    for k, m in (("filter", "o"), ("draw", "s")):
+        ax.plot(sizes, [np.median(by[s][k]) if by[s][k] else np.nan for s in sizes], marker=m, label=k)
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log")
+    ax.set_xlabel("face size (texels)")
+    ax.set_ylabel("time (ms, median over configurations)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return True

@@ -1,0 +1,105 @@
+"""`iblcheck report DIR`: DIR/index.html (one page) and DIR/summary.md from DIR/results.jsonl.
+
+The page holds, for every configuration, the real-time image, the reference, the error heat map
+and the FLIP map side by side; a sortable table of every metric; and the plots (also written as
+PNG files under DIR/figures): PSNR and SSIM against LOD bias per face size, PSNR against frame
+time with the Pareto front, filter and draw time against face size. Extra sections (the paper
+suite's experiments) come before them.
+"""
+
+from __future__ import annotations
+
+import base64
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from . import plots
+from .sweep import RESULTS, read_rows
+
+COLUMNS = [("scene", True), ("face", False), ("bias", False), ("mapping", True), ("material", True), ("N", False),
+           ("f0", False), ("env", True), ("PSNR dB", False), ("floor dB", False), ("SSIM", False), ("FLIP", False),
+           ("relMSE", False), ("filter ms", False), ("draw ms", False), ("total ms", False)]
+
+
+@dataclass
+class Section:
+    title: str
+    html: str
+    markdown: str
+    figures: list[str] = field(default_factory=list)  # PNG paths relative to the report folder
+
+
+def fmt(value, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def env_name(env: str) -> str:
+    return env.split(":", 1)[1] if env.startswith("builtin:") else Path(env).name
+
+
+def table_cells(r: dict) -> list[str]:
+    ms = r.get("realtime_ms", {})
+    return [r["scene"], str(r["face_size"]), fmt(r["lod_bias"], "g"), r["lod_mapping"], r["material"],
+            fmt(r["exponent"], "g"), fmt(r["f0"], "g"), env_name(r["env"]), fmt(r["psnr"], ".2f"),
+            fmt(r["noise_floor_psnr"], ".2f"), fmt(r["ssim"], ".4f"), fmt(r["flip"], ".4f"), fmt(r["rel_mse"], ".3g"),
+            fmt(ms.get("filter"), ".2f"), fmt(ms.get("draw"), ".2f"), fmt(ms.get("total"), ".2f")]
+
+
+def label(r: dict) -> str:
+    return (f"{r['scene']}: face {r['face_size']}, bias {r['lod_bias']:g}, {r['lod_mapping']}, "
+            f"{r['material']} N={r['exponent']:g} f0={r['f0']:g}, {env_name(r['env'])}")
+
+
+def _inline(path: Path) -> str:
+    return base64.b64encode(path.read_bytes()).decode()
+
+
+def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] | None = None,
+          rows: list[dict] | None = None, subtitle: str = "") -> Path:
+    """Write out_dir/index.html and out_dir/summary.md; returns the HTML path."""
+    from jinja2 import Environment, PackageLoader, select_autoescape
+
+    out_dir = Path(out_dir)
+    if rows is None:
+        rows = read_rows(out_dir / RESULTS)
+    figdir = out_dir / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+    plot_list = []
+    for name, fn, alt in (("psnr_ssim_vs_lod_bias.png", plots.accuracy_vs_bias, "PSNR and SSIM against LOD bias"),
+                          ("psnr_vs_frame_time.png", plots.accuracy_vs_time, "PSNR against frame time"),
+                          ("time_vs_face_size.png", plots.cost_vs_size, "filter and draw time against face size")):
+        if rows and fn(rows, figdir / name):
+            plot_list.append({"file": f"figures/{name}", "data": _inline(figdir / name), "alt": alt})
+    view_rows = [{"cells": table_cells(r), "at_floor": r.get("at_noise_floor"), "images": r["images"],
+                  "label": label(r), "psnr": fmt(r["psnr"], ".2f")} for r in rows]
+    env = Environment(loader=PackageLoader("experiments", "templates"), autoescape=select_autoescape())
+    html = env.get_template("report.html.j2").render(
+        title=title, subtitle=subtitle or f"{len(rows)} configurations", sections=sections or [], plots=plot_list,
+        rows=view_rows, columns=[{"title": t, "left": left} for t, left in COLUMNS])
+    index = out_dir / "index.html"
+    index.write_text(html)
+    (out_dir / "summary.md").write_text(summary_markdown(title, rows, sections or [], plot_list))
+    return index
+
+
+def summary_markdown(title: str, rows: list[dict], sections: list[Section], plot_list: list[dict]) -> str:
+    lines = [f"# {title}", ""]
+    for s in sections:
+        lines += [f"## {s.title}", "", s.markdown.strip(), ""]
+        lines += [f"![{s.title}]({f})" for f in s.figures]
+        lines.append("")
+    if rows:
+        best = {}
+        for r in rows:
+            if r.get("psnr") is not None and (r["scene"] not in best or r["psnr"] > best[r["scene"]]["psnr"]):
+                best[r["scene"]] = r
+        lines += ["## Best configuration per scene", "",
+                  "| scene | face | bias | PSNR dB | floor dB | SSIM | total ms |",
+                  "|---|---:|---:|---:|---:|---:|---:|"]
+        for name, r in sorted(best.items()):
+            lines.append(f"| {name} | {r['face_size']} | {r['lod_bias']:g} | {fmt(r['psnr'], '.2f')} | "
+                         f"{fmt(r['noise_floor_psnr'], '.2f')} | {fmt(r['ssim'], '.4f')} | "
+                         f"{fmt(r['realtime_ms'].get('total'), '.2f')} |")
+        lines.append("")
+    lines += [f"![{p['alt']}]({p['file']})" for p in plot_list]
+    return "\n".join(lines) + "\n"

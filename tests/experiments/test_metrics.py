@@ -1,0 +1,108 @@
+"""Metrics against values computed by hand and against scikit-image (design.md section 7)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from experiments import metrics
+from scenes.render import Render
+
+
+@pytest.fixture
+def image(rng) -> np.ndarray:
+    return rng.uniform(0.1, 0.8, size=(40, 50, 3))
+
+
+def test_identical_images_give_the_documented_cap(image):
+    mask = np.ones(image.shape[:2], bool)
+    assert metrics.psnr(image, image, mask) == metrics.PSNR_CAP
+    assert metrics.ssim(image, image, mask) == pytest.approx(1.0)
+    assert metrics.flip(image, image, mask) == pytest.approx(0.0, abs=1e-6)
+    assert metrics.rel_mse(image, image, mask) == 0.0
+
+
+@pytest.mark.parametrize("offset", [0.1, 0.01, 0.003])
+def test_constant_offset_psnr_by_hand(image, offset):
+    """MSE = offset^2 on every pixel: PSNR = 10 log10(1 / offset^2) = -20 log10(offset)."""
+    mask = np.ones(image.shape[:2], bool)
+    assert metrics.psnr(image + offset, image, mask) == pytest.approx(-20 * math.log10(offset), abs=1e-9)
+
+
+def test_mask_selects_pixels(image):
+    mask = np.zeros(image.shape[:2], bool)
+    mask[10:20, 10:30] = True
+    other = image.copy()
+    other[~mask] += 0.5  # differences outside the mask do not count
+    assert metrics.psnr(other, image, mask) == metrics.PSNR_CAP
+    other[mask] += 0.1
+    assert metrics.psnr(other, image, mask) == pytest.approx(20.0, abs=1e-9)
+
+
+def test_empty_mask_gives_none_everywhere(image):
+    mask = np.zeros(image.shape[:2], bool)
+    assert metrics.psnr(image, image, mask) is None
+    assert metrics.ssim(image, image, mask) is None
+    assert metrics.flip(image, image, mask) is None
+    assert metrics.rel_mse(image, image, mask) is None
+    assert metrics.noise_floor_psnr(image, image, mask) is None
+
+
+def test_ssim_matches_scikit_image_unmasked(image, rng):
+    from skimage.metrics import structural_similarity
+
+    other = np.clip(image + rng.normal(0, 0.05, image.shape), 0, 1)
+    mask = np.ones(image.shape[:2], bool)
+    expected = structural_similarity(other, image, data_range=1.0, channel_axis=-1)
+    assert metrics.ssim(other, image, mask) == pytest.approx(expected, abs=1e-12)
+
+
+def test_common_mask_and_erosion():
+    a = np.zeros((9, 9), bool)
+    a[2:7, 2:7] = True
+    b = np.ones((9, 9), bool)
+    m = metrics.common_mask(a, b, erode=1)
+    expected = np.zeros((9, 9), bool)
+    expected[3:6, 3:6] = True
+    np.testing.assert_array_equal(m, expected)
+    np.testing.assert_array_equal(metrics.common_mask(a, b, erode=0), a)
+
+
+def test_rel_mse_by_hand():
+    ref = np.full((2, 2, 3), 0.5)
+    test = ref + 0.1
+    mask = np.ones((2, 2), bool)
+    assert metrics.rel_mse(test, ref, mask, eps=1e-2) == pytest.approx(0.01 / (0.25 + 0.01))
+
+
+def test_noise_floor_is_the_psnr_of_one_render_against_the_truth(rng):
+    """Statistical check of the +10 log10(2) dB: two noisy copies of a known truth."""
+    truth = rng.uniform(0.2, 0.8, size=(200, 200, 3))
+    sigma = 0.01
+    a = truth + rng.normal(0, sigma, truth.shape)
+    b = truth + rng.normal(0, sigma, truth.shape)
+    mask = np.ones(truth.shape[:2], bool)
+    assert metrics.noise_floor_psnr(a, b, mask) == pytest.approx(metrics.psnr(a, truth, mask), abs=0.05)
+    assert metrics.psnr(a, truth, mask) == pytest.approx(-20 * math.log10(sigma), abs=0.05)
+
+
+def test_compare_json_has_no_infinity(tmp_path):
+    """Identical renders: PSNR is the cap, JSON serialisation with allow_nan=False works."""
+    import experiments
+    import scenes
+
+    scene = scenes.load("builtin:sphere-diffuse")
+    rgb = np.full((16, 16, 3), 0.5, np.float32)
+    mask = np.zeros((16, 16), bool)
+    mask[4:12, 4:12] = True
+    r = Render(rgb=rgb, mask=mask, meta={"renderer": "quadrature"})
+    out = experiments.compare(r, r, scene)
+    assert out["psnr"] == metrics.PSNR_CAP and out["noise_floor_psnr"] == metrics.PSNR_CAP
+    json.dumps(out, allow_nan=False)
+    empty = Render(rgb=rgb, mask=np.zeros((16, 16), bool), meta={"renderer": "quadrature"})
+    out = experiments.compare(empty, r, scene)
+    assert out["psnr"] is None and out["pixels"] == 0
+    json.dumps(out, allow_nan=False)
