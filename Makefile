@@ -20,6 +20,7 @@ system-deps:
 	@bash .ci/system-deps.sh
 
 test: setup
+	@bash .ci/system-deps.sh --test
 	$(PY) -m pytest -q
 
 test-fast: setup

@@ -41,10 +41,12 @@ class Settings:
 
 
 QUICK = Settings(size=96, spp=256, frames=10, e1_faces=(8, 16, 32, 64, 128), e2_faces=(32, 128),
-                 e2_biases=(-1.0, 0.0, 1.0, 2.0, 3.0, 4.0), e4_faces=(8, 64, 256), e5_spps=(16, 64, 256))
+                 e2_biases=(-1.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0), e4_faces=(8, 64, 256),
+                 e5_spps=(16, 64, 256))
 FULL = Settings(size=192, spp=1024, frames=30, e1_faces=(8, 16, 32, 64, 128, 256), e2_faces=(16, 32, 64, 128, 256),
-                e2_biases=tuple(np.arange(-1.0, 5.01, 0.5).round(2).tolist()), e4_faces=(8, 16, 32, 64, 128, 256),
+                e2_biases=tuple(np.arange(-1.0, 7.01, 0.5).round(2).tolist()), e4_faces=(8, 16, 32, 64, 128, 256),
                 e5_spps=(16, 64, 256, 1024, 4096))
+TITLE = "iblcheck paper suite: Gu et al. 2006 against Mitsuba 3"
 EXPONENTS = (10.0, 50.0, 200.0, 1000.0)
 F0S = (0.02, 0.04, 0.5, 1.0)
 
@@ -83,6 +85,7 @@ class Suite:
         self.out, self.s, self.progress = out, settings, progress
         self.results = out / RESULTS
         self.done = {r["id"]: r for r in read_rows(self.results)}
+        self.used: list[str] = []
         (out / "figures").mkdir(parents=True, exist_ok=True)
 
     def base(self) -> dict:
@@ -96,8 +99,17 @@ class Suite:
         if rid not in self.done:
             self.done[rid] = run_row(self.out, spec, ov, {"experiment": experiment})
             append_row(self.results, self.done[rid])
+        if rid not in self.used:
+            self.used.append(rid)
         self.progress()
         return self.done[rid]
+
+    def keep_only_used(self) -> None:
+        """Rewrite results.jsonl with this run's rows only (a quick run after a full one, or the reverse,
+        must not mix the two in one report); atomic, like every write of the file."""
+        tmp = self.results.with_suffix(".tmp")
+        tmp.write_text("".join(json.dumps(self.done[i], allow_nan=False, sort_keys=True) + "\n" for i in self.used))
+        tmp.replace(self.results)
 
     # ----------------------------------------------------------------------------- E1
     def e1(self) -> Section:
@@ -185,8 +197,10 @@ class Suite:
                 top = max(rows, key=lambda r: r["psnr"] if r["psnr"] is not None else -1e9)
                 best[(n, s)] = (top, mc, rows)
                 formula = levels.mcguire_offset(s, n)
-                table.append([f"{n:g}", s, f"{top['lod_bias']:g}", f2(top["psnr"]), f"{formula:.2f}", f2(mc["psnr"]),
-                              f2(top["noise_floor_psnr"])])
+                ends = (min(self.s.e2_biases), max(self.s.e2_biases))
+                edge = " (edge of the range)" if top["lod_bias"] in ends else ""
+                table.append([f"{n:g}", s, f"{top['lod_bias']:g}{edge}", f2(top["psnr"]), f"{formula:.2f}",
+                              f2(mc["psnr"]), f2(top["noise_floor_psnr"])])
         header = ["N", "face size", "best bias (paper mapping)", "PSNR at best", "McGuire offset",
                   "PSNR with McGuire", "noise floor"]
         plt = _plt()
@@ -372,12 +386,12 @@ def run(out: Path, quick: bool = False) -> Path:
             t = time.perf_counter()
             sections.append(getattr(suite, name)())
             timings[name.upper()] = time.perf_counter() - t
+    suite.keep_only_used()
     total = time.perf_counter() - t0
-    (out / "experiments.json").write_text(json.dumps({"quick": quick, "seconds": timings, "total_s": total,
-                                                      "sections": [s.markdown for s in sections]}, indent=1))
-    rows = [r for r in read_rows(out / RESULTS)]
     subtitle = (f"{'quick' if quick else 'full'} suite, {settings.size}x{settings.size} pixels, references at "
                 f"{settings.spp} spp; ran in {total / 60:.1f} min (" +
                 ", ".join(f"{k} {v:.0f} s" for k, v in timings.items()) + ")")
-    return report.build(out, title="iblcheck paper suite: Gu et al. 2006 against Mitsuba 3", sections=sections,
-                        rows=rows, subtitle=subtitle)
+    (out / report.SECTIONS).write_text(json.dumps({
+        "title": TITLE, "subtitle": subtitle, "quick": quick, "seconds": timings, "total_s": total,
+        "sections": [vars(s) for s in sections]}, indent=1))
+    return report.build(out, title=TITLE, sections=sections, subtitle=subtitle)

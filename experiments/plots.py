@@ -31,16 +31,21 @@ def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
 def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     """PSNR and SSIM against LOD bias, one line per face size, one column per glossy scene."""
     glossy = [r for r in rows if "glossy" in r["effects"] and r.get("psnr") is not None]
-    scenes = sorted({r["scene"] for r in glossy})
-    if not scenes:
+
+    def panel(r):  # one panel per scene and material variant, one line per face size and mapping
+        return (r["scene"], r["exponent"], r["f0"] if "fresnel" in r["effects"] else None, r["env"])
+
+    panels = sorted({panel(r) for r in glossy}, key=str)[:8]
+    if not panels:
         return False
     plt = _plt()
-    fig, axes = plt.subplots(2, len(scenes), figsize=(4.2 * len(scenes), 6.4), squeeze=False)
-    for j, name in enumerate(scenes):
+    fig, axes = plt.subplots(2, len(panels), figsize=(3.6 * len(panels), 6.4), squeeze=False)
+    for j, key in enumerate(panels):
         series = defaultdict(list)
         for r in glossy:
-            if r["scene"] == name:
+            if panel(r) == key and r["lod_mapping"] == "paper":
                 series[r["face_size"]].append((r["lod_bias"], r["psnr"], r["ssim"]))
+        name = f"{key[0]} N={key[1]:g}" + (f" f0={key[2]:g}" if key[2] is not None else "")
         for s in sorted(series):
             pts = sorted(series[s])
             b = [p[0] for p in pts]
@@ -67,13 +72,18 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     plt = _plt()
     t = np.array([r["realtime_ms"]["total"] for r in pts])
     p = np.array([r["psnr"] for r in pts])
+    from matplotlib.ticker import ScalarFormatter
+
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    for name in sorted({r["scene"] for r in pts}):
-        sel = np.array([r["scene"] == name for r in pts])
-        ax.scatter(t[sel], p[sel], s=18, alpha=0.7, label=name)
-    front = pareto_front(t, p)
-    ax.plot(t[front], p[front], color="k", lw=1.2, drawstyle="steps-post", label="Pareto front")
+    for name in sorted({r["scene"] for r in pts}):  # fronts per scene: different scenes do not compete
+        sel = np.flatnonzero([r["scene"] == name for r in pts])
+        dots = ax.scatter(t[sel], p[sel], s=16, alpha=0.5, label=name)
+        front = sel[pareto_front(t[sel], p[sel])]
+        ax.plot(t[front], p[front], color=dots.get_facecolor()[0][:3], lw=1.4, drawstyle="steps-post")
+    ax.plot([], [], color="k", lw=1.4, label="Pareto front (per scene)")
     ax.set_xscale("log")
+    ax.xaxis.set_major_formatter(ScalarFormatter())
+    ax.xaxis.set_minor_formatter(ScalarFormatter())
     ax.set_xlabel("frame time, filter + draw (ms, median)")
     ax.set_ylabel("PSNR (dB)")
     ax.set_title("What accuracy costs in time")

@@ -10,12 +10,15 @@ suite's experiments) come before them.
 from __future__ import annotations
 
 import base64
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from . import plots
 from .sweep import RESULTS, read_rows
 
+#: the paper suite's sections, kept so that `iblcheck report` can rebuild its page
+SECTIONS = "experiments.json"
 COLUMNS = [("scene", True), ("face", False), ("bias", False), ("mapping", True), ("material", True), ("N", False),
            ("f0", False), ("env", True), ("PSNR dB", False), ("floor dB", False), ("SSIM", False), ("FLIP", False),
            ("relMSE", False), ("filter ms", False), ("draw ms", False), ("total ms", False)]
@@ -60,6 +63,11 @@ def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] 
     from jinja2 import Environment, PackageLoader, select_autoescape
 
     out_dir = Path(out_dir)
+    saved = out_dir / SECTIONS
+    if sections is None and saved.is_file():
+        meta = json.loads(saved.read_text())
+        sections = [Section(**d) for d in meta["sections"]]
+        title, subtitle = meta.get("title", title), subtitle or meta.get("subtitle", "")
     if rows is None:
         rows = read_rows(out_dir / RESULTS)
     figdir = out_dir / "figures"
@@ -91,13 +99,15 @@ def summary_markdown(title: str, rows: list[dict], sections: list[Section], plot
     if rows:
         best = {}
         for r in rows:
-            if r.get("psnr") is not None and (r["scene"] not in best or r["psnr"] > best[r["scene"]]["psnr"]):
-                best[r["scene"]] = r
-        lines += ["## Best configuration per scene", "",
-                  "| scene | face | bias | PSNR dB | floor dB | SSIM | total ms |",
-                  "|---|---:|---:|---:|---:|---:|---:|"]
-        for name, r in sorted(best.items()):
-            lines.append(f"| {name} | {r['face_size']} | {r['lod_bias']:g} | {fmt(r['psnr'], '.2f')} | "
+            key = (r["scene"], r["material"], r["exponent"], r["f0"], env_name(r["env"]))
+            if r.get("psnr") is not None and (key not in best or r["psnr"] > best[key]["psnr"]):
+                best[key] = r
+        lines += ["## Best configuration per scene and material", "",
+                  "| scene | material | N | f0 | env | face | bias | mapping | PSNR dB | floor dB | SSIM | total ms |",
+                  "|---|---|---:|---:|---|---:|---:|---|---:|---:|---:|---:|"]
+        for (name, mat, n, f0, env), r in sorted(best.items(), key=str):
+            lines.append(f"| {name} | {mat} | {n:g} | {f0:g} | {env} | {r['face_size']} | {r['lod_bias']:g} | "
+                         f"{r['lod_mapping']} | {fmt(r['psnr'], '.2f')} | "
                          f"{fmt(r['noise_floor_psnr'], '.2f')} | {fmt(r['ssim'], '.4f')} | "
                          f"{fmt(r['realtime_ms'].get('total'), '.2f')} |")
         lines.append("")
