@@ -36,11 +36,13 @@ def parse_sets(items: list[str] | None) -> dict[str, str]:
     return out
 
 
-def load_scene(spec: str, sets: list[str] | None = None):
+def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
     import scenes
 
     scene = scenes.load(spec)
     overrides = parse_sets(sets)
+    if sanitize:
+        overrides["environment.sanitize"] = True
     return scene.with_overrides(overrides) if overrides else scene
 
 
@@ -63,12 +65,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--renderer", choices=["realtime", "reference", "quadrature"], default="realtime")
     r.add_argument("--set", action="append", metavar="K=V", help="override a scene key (repeatable)")
     r.add_argument("-o", "--out", default=None, help="output .exr path (a .png is written beside it)")
+    r.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
     r.set_defaults(func=_cmd_render)
 
     c = sub.add_parser("compare", help="real-time vs reference metrics for one scene")
     c.add_argument("scene")
     c.add_argument("--set", action="append", metavar="K=V")
     c.add_argument("--json", action="store_true")
+    c.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
     c.set_defaults(func=_cmd_compare)
 
     s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
@@ -114,8 +118,11 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
     from . import comparison
 
-    scene = load_scene(args.scene, args.set)
+    scene = load_scene(args.scene, args.set, args.sanitize)
     result = comparison.run(scene).metrics
+    if result["pixels"] == 0:
+        print(f"warning: {scene.name}: no pixel is covered in both images (is the object outside the view?); "
+              "the image metrics are undefined (null)", file=sys.stderr)
     print(json.dumps(result, allow_nan=False) if args.json else comparison.format_table([result]))
     return EXIT_OK
 

@@ -7,6 +7,8 @@
     E3 Fresnel    blends for f0 in {0.02, 0.04, 0.5, 1.0}: error against the viewing angle.
     E4 cost       frame time by effect set and face size, the map turning (refiltered) every frame.
     E5 reference  spp against noise floor and seconds.
+    E6 stability  every hard case (bright suns and SH windows, extreme exponents and sizes, broken
+                  inputs, odd geometry, determinism) with what happened (experiments/stability.py).
 
 Everything lands in OUT (default reports/paper): results.jsonl (every compared configuration),
 experiments.json (the tables), figures/*.png, index.html and summary.md. `--quick` uses smaller
@@ -360,9 +362,25 @@ class Suite:
                        ["figures/e5_convergence.png"])
 
 
+def e6_section(spp: int, progress) -> Section:
+    from html import escape
+
+    from . import stability
+
+    rows = stability.run(spp=spp, progress=progress)
+    header = ["case", "expected", "what happened"]
+    cells = [[r["case"], r["expected"], stability.outcome_text(r)] for r in rows]
+    bad = sum(not r["ok"] for r in rows)
+    note = (f"{len(rows)} hard cases, {bad} unexpected. The same cases are asserted in tests/hard/. Sun cases: a "
+            "diffuse sphere under the sky seen from below the horizon; min E is SH9 irradiance over the sphere.")
+    html = html_table(header, [[escape(str(c)) for c in row] for row in cells]) + f"<p>{note}</p>"
+    md = md_table(header, [[str(c).replace("|", "/") for c in row] for row in cells]) + "\n\n" + note
+    return Section("E6 stability: hard cases", html, md)
+
+
 def count_steps(s: Settings) -> int:
     return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
-            + 4 * len(s.e4_faces) + len(s.e5_spps))
+            + 4 * len(s.e4_faces) + len(s.e5_spps) + 6)
 
 
 def run(out: Path, quick: bool = False) -> Path:
@@ -386,6 +404,10 @@ def run(out: Path, quick: bool = False) -> Path:
             t = time.perf_counter()
             sections.append(getattr(suite, name)())
             timings[name.upper()] = time.perf_counter() - t
+        progress.update(task, description="E6")
+        t = time.perf_counter()
+        sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))
+        timings["E6"] = time.perf_counter() - t
     suite.keep_only_used()
     total = time.perf_counter() - t0
     subtitle = (f"{'quick' if quick else 'full'} suite, {settings.size}x{settings.size} pixels, references at "

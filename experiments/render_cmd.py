@@ -48,7 +48,7 @@ def write_png(path: Path, rgb8: np.ndarray) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    scene = load_scene(args.scene, args.set)
+    scene = load_scene(args.scene, args.set, args.sanitize)
     out = Path(args.out or f"{scene.name}-{args.renderer}.exr")
     if out.suffix.lower() != ".exr":
         raise UsageError(f"-o {out}: the output must be an .exr file")

@@ -33,11 +33,6 @@ def render(scene) -> Render:
     from .timing import summarize, timed
 
     rt = scene.realtime
-    if rt.sh_window != "none":
-        from scenes import SceneError
-
-        raise SceneError(f"{scene.path}: realtime.sh_window = {rt.sh_window!r}: SH deringing windows are not "
-                         'implemented yet; only "none" is')
     ctx = get_context()
     effects = scene.effects
     distance = object_distance(scene)
@@ -46,6 +41,12 @@ def render(scene) -> Render:
     need_sh = "diffuse" in effects
     chain_to = None if "glossy" in effects else level  # glossy reads the whole chain
 
+    window = None
+    if need_sh:  # the deringing window, chosen once (a turn about +Y does not change min E)
+        from . import deringing, sh
+
+        env = scene.environment.radiance()
+        window = deringing.choose(rt.sh_window, sh.project_equirect(env, scene.environment.rotation_deg))
     env_filter = EnvironmentFilter(ctx, scene.environment.radiance(), rt.base_size)
     drawer = SceneDrawer(ctx, scene, env_filter)
 
@@ -53,7 +54,7 @@ def render(scene) -> Render:
         env_filter.fill_base(rotation)
         env_filter.build_chain(chain_to)
         if need_sh:
-            env_filter.project_sh(face_size)
+            env_filter.project_sh(face_size, window.factors)
 
     samples: dict[str, list[float]] = {"filter": [], "draw": [], "total": [], "background": []}
     try:
@@ -86,8 +87,14 @@ def render(scene) -> Render:
             "warmup_frames": rt.warmup_frames,
         }
         if need_sh:
+            from .deringing import min_irradiance
+
             coeffs, _ = env_filter.read_sh()
             meta["sh_coeffs"] = coeffs.tolist()
+            meta["sh_window"] = {"setting": rt.sh_window, "kind": window.kind, "cutoff": window.cutoff,
+                                 "factors": list(window.factors), "min_irradiance_before": window.min_before,
+                                 "min_irradiance_after": window.min_after,
+                                 "min_irradiance_gpu": min_irradiance(coeffs)}
         return Render(rgb=rgb, mask=mask, timings=summarize(samples), meta=meta)
     finally:
         drawer.release()

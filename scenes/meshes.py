@@ -8,6 +8,7 @@ Builtin meshes are centred at the origin and fit in the unit sphere (`sphere` ha
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, field
 from functools import lru_cache
 from importlib import resources
@@ -17,6 +18,10 @@ import numpy as np
 
 from .directions import normalize, rotation_xyz
 from .errors import MeshError
+
+
+class MeshWarning(UserWarning):
+    """A mesh was repaired on load (e.g. inward normals flipped)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -77,6 +82,12 @@ def make_mesh(name: str, positions, indices, normals=None, convex: bool | None =
         n = np.nan_to_num(n, nan=0.0, posinf=0.0, neginf=0.0)
         length = np.linalg.norm(n, axis=1)
         n = np.where((length > 1e-12)[:, None], normalize(n), smooth)
+        # a normal pointing against its faces' winding (an inward normal) is flipped, and said so
+        inward = (n * smooth).sum(axis=1) < 0
+        if inward.any():
+            warnings.warn(f"{name}: {int(inward.sum())} vertex normals point against the faces' winding "
+                          "(inward); flipped", MeshWarning, stacklevel=2)
+            n[inward] *= -1.0
     if convex is None:
         convex = is_convex(p, idx)
     if closed is None:
@@ -371,7 +382,7 @@ def _load_obj(path: Path) -> Mesh:
     positions = np.array([v[vi] for vi, _ in keys])
     has_normals = all(ni is not None for _, ni in keys)
     normals = np.array([vn[ni] for _, ni in keys]) if has_normals else None
-    return make_mesh(path.stem, positions, np.array(faces), normals=normals)
+    return make_mesh(str(path), positions, np.array(faces), normals=normals)
 
 
 _PLY_TYPES = {"char": "i1", "uchar": "u1", "short": "i2", "ushort": "u2", "int": "i4", "uint": "u4",
@@ -451,4 +462,4 @@ def _load_ply(path: Path) -> Mesh:
             faces = [(poly[0], poly[k], poly[k + 1]) for poly in polys for k in range(1, len(poly) - 1)]
     if verts is None or not faces:
         raise MeshError(f"{path}: PLY needs vertex and face elements")
-    return make_mesh(path.stem, verts, np.array(faces, dtype=np.int64), normals=normals)
+    return make_mesh(str(path), verts, np.array(faces, dtype=np.int64), normals=normals)

@@ -15,7 +15,7 @@ import copy
 import math
 import tomllib
 from dataclasses import asdict, dataclass, field
-from functools import cached_property
+from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
 from typing import Any
@@ -76,18 +76,33 @@ class Environment:
     rotation_deg: float = 0.0
     scale: float = 1.0
     params: tuple[tuple[str, float], ...] = ()
+    sanitize: bool = False  # replace NaN / Inf / negative pixels by 0 (counted in a warning) instead of refusing
 
     @property
     def builtin_name(self) -> str | None:
         return self.map[len(BUILTIN_PREFIX):] if self.map.startswith(BUILTIN_PREFIX) else None
 
-    def radiance(self, sanitize: bool = False) -> np.ndarray:
-        """The map's (H, W, 3) float32 radiance times `scale` (rotation is applied at lookup)."""
-        from . import envmap
+    def radiance(self, sanitize: bool | None = None) -> np.ndarray:
+        """The map's (H, W, 3) float32 radiance times `scale` (rotation is applied at lookup).
 
+        Read-only and cached per file state; `sanitize` defaults to `environment.sanitize`."""
         name = self.builtin_name
-        arr = environments.builtin(name, dict(self.params)) if name else envmap.read(self.map, sanitize=sanitize)
+        sanitize = self.sanitize if sanitize is None else sanitize
+        if name:
+            arr = environments.builtin(name, dict(self.params))
+        else:
+            st = Path(self.map).stat()
+            arr = _read_map(self.map, st.st_mtime_ns, st.st_size, sanitize)
         return arr if self.scale == 1.0 else (arr * np.float32(self.scale)).astype(np.float32)
+
+
+@lru_cache(maxsize=8)
+def _read_map(path: str, mtime_ns: int, size: int, sanitize: bool) -> np.ndarray:
+    from . import envmap
+
+    arr = envmap.read(path, sanitize=sanitize)
+    arr.setflags(write=False)
+    return arr
 
 
 @dataclass(frozen=True)
@@ -234,6 +249,10 @@ def _vec3(lo: float = -1e6, hi: float = 1e6):
     return check, text
 
 
+def _bool():
+    return (lambda v: v if isinstance(v, bool) else None), "true or false"
+
+
 def _string():
     return (lambda v: v if isinstance(v, str) and v else None), "a non-empty string"
 
@@ -243,6 +262,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "map": _string(),
         "rotation_deg": _num(-1e4, 1e4),
         "scale": _num(0, 1e9),
+        "sanitize": _bool(),
     },
     "camera": {
         "origin": _vec3(),

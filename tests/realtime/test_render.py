@@ -129,8 +129,3 @@ def test_display_pass_equals_numpy_tonemap(rng):
     rgb[0, 0] = 0.0
     gpu = tonemap_gpu(rgb, 0.18, 4.0, 0.5, 0.7)
     np.testing.assert_allclose(gpu, tonemap.tonemap(rgb, 0.18, 4.0, 0.5, 0.7), atol=1e-4)
-
-
-def test_unimplemented_sh_window_is_refused_not_ignored():
-    with pytest.raises(scenes.SceneError, match="sh_window"):
-        realtime.render(small("builtin:sphere-diffuse", **{"realtime.sh_window": "hanning"}))

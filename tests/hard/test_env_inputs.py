@@ -1,0 +1,98 @@
+"""Environment maps that are hard or broken: refused clearly (exit 2) or rendered finite."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import realtime
+import scenes
+from experiments import metrics
+from groundtruth import quadrature
+from tests.hard.common import one_error_line, run_cli, write_env, write_tiny
+
+
+def env_scene(tmp_path, rgb: np.ndarray, suffix: str = ".exr", material: str = '{ type = "blend" }') -> scenes.Scene:
+    write_env(tmp_path / f"env{suffix}", rgb)
+    return scenes.load(write_tiny(tmp_path, env=f"env{suffix}", material=material))
+
+
+@pytest.mark.parametrize(("value", "word"), [(np.nan, "nan"), (np.inf, "inf"), (-1.0, "-1.0")])
+def test_invalid_pixels_refused_then_sanitized(tmp_path, value, word):
+    rgb = np.ones((16, 32, 3), np.float32)
+    rgb[3, 5, 1] = value
+    rgb[9, 1, 0] = value
+    write_env(tmp_path / "env.exr", rgb)
+    path = write_tiny(tmp_path, env="env.exr")
+    line = one_error_line(run_cli("render", str(path), "-o", str(tmp_path / "o.exr")))
+    assert "env.exr" in line and "2 " in line and word in line.lower() and "--sanitize" in line, line
+    ok = run_cli("render", str(path), "-o", str(tmp_path / "o.exr"), "--sanitize")
+    assert ok.returncode == 0, ok.stderr
+    assert "replaced 2" in ok.stderr
+    out = scenes.imageio.read_exr(tmp_path / "o.exr")
+    assert np.isfinite(out).all()
+
+
+@pytest.mark.parametrize("damage", ["truncate", "garbage"])
+@pytest.mark.parametrize("suffix", [".exr", ".hdr", ".pfm"])
+def test_corrupt_or_truncated_maps_exit_2(tmp_path, damage, suffix):
+    write_env(tmp_path / f"env{suffix}", np.ones((16, 32, 3), np.float32))
+    p = tmp_path / f"env{suffix}"
+    data = p.read_bytes()
+    p.write_bytes(data[: len(data) // 2] if damage == "truncate" else b"\x00garbage" * 20)
+    line = one_error_line(run_cli("render", str(write_tiny(tmp_path, env=f"env{suffix}"))))
+    assert f"env{suffix}" in line
+
+
+def test_wrong_channel_count_exits_2(tmp_path):
+    import OpenEXR
+
+    two = {"R": np.ones((8, 16), np.float32), "G": np.ones((8, 16), np.float32)}
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, two) as f:
+        f.write(str(tmp_path / "env.exr"))
+    line = one_error_line(run_cli("render", str(write_tiny(tmp_path, env="env.exr"))))
+    assert "env.exr" in line and "channel" in line
+
+
+def test_too_large_is_refused_before_allocating(tmp_path, monkeypatch):
+    from scenes import EnvMapError, envmap, imageio
+
+    write_env(tmp_path / "env.exr", np.ones((64, 128, 3), np.float32))
+    monkeypatch.setattr(imageio, "MAX_PIXELS", 1000)
+    with pytest.raises(EnvMapError, match="env.exr"):
+        envmap.read(tmp_path / "env.exr")
+
+
+@pytest.mark.gl
+def test_all_black_environment_gives_defined_metrics(tmp_path):
+    scene = env_scene(tmp_path, np.zeros((16, 32, 3), np.float32))
+    rt, q = realtime.render(scene), quadrature.render(scene, subpixels=1)
+    assert (rt.rgb == 0).all() and (q.rgb == 0).all()
+    from experiments import compare
+
+    out = compare(rt, q, scene)
+    assert out["psnr"] == metrics.PSNR_CAP and out["rel_mse"] == 0.0 and out["flip"] == pytest.approx(0.0, abs=1e-6)
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize("material", ['{ type = "diffuse" }', '{ type = "phong", exponent = 1000.0 }'])
+def test_single_hot_pixel_of_1e6(tmp_path, material):
+    rgb = np.full((32, 64, 3), 0.1, np.float32)
+    rgb[10, 20] = 1e6
+    scene = env_scene(tmp_path, rgb, material=material)
+    rt, q = realtime.render(scene), quadrature.render(scene, subpixels=1)
+    for img in (rt.rgb, q.rgb):
+        assert np.isfinite(img).all() and img.min() >= 0
+    # energy: the diffuse sphere's mean radiance is about kd * (mean of the map) for SH9 and quadrature alike
+    if "diffuse" in material:
+        both = rt.mask & q.mask
+        assert rt.rgb[both].mean() == pytest.approx(q.rgb[both].mean(), rel=0.05)
+
+
+@pytest.mark.gl
+def test_values_above_half_float_range_survive(tmp_path):
+    """1e6 > 65504 (the half-float maximum): textures are 32-bit, so kd * L comes out, not Inf."""
+    scene = env_scene(tmp_path, np.full((16, 32, 3), 1e6, np.float32), material='{ type = "diffuse", kd = [0.5, 0.5, 0.5] }')
+    rt = realtime.render(scene)
+    assert np.isfinite(rt.rgb).all()
+    np.testing.assert_allclose(rt.rgb[rt.mask], 5e5, rtol=1e-3)
