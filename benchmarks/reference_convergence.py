@@ -70,7 +70,7 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--json")
     args = ap.parse_args()
-    spps = [64, 256, 1024, 4096]
+    spps = [64, 256, 1024, 1280, 4096]
     rows = convergence("sphere-diffuse", args.size, spps, args.repeats)
     rows += convergence("sphere-blend", args.size, spps, args.repeats)
     summary = {}

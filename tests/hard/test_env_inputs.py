@@ -92,7 +92,8 @@ def test_single_hot_pixel_of_1e6(tmp_path, material):
 @pytest.mark.gl
 def test_values_above_half_float_range_survive(tmp_path):
     """1e6 > 65504 (the half-float maximum): textures are 32-bit, so kd * L comes out, not Inf."""
-    scene = env_scene(tmp_path, np.full((16, 32, 3), 1e6, np.float32), material='{ type = "diffuse", kd = [0.5, 0.5, 0.5] }')
+    scene = env_scene(tmp_path, np.full((16, 32, 3), 1e6, np.float32),
+                      material='{ type = "diffuse", kd = [0.5, 0.5, 0.5] }')
     rt = realtime.render(scene)
     assert np.isfinite(rt.rgb).all()
     np.testing.assert_allclose(rt.rgb[rt.mask], 5e5, rtol=1e-3)
