@@ -30,8 +30,7 @@ def save_heatmap(path: Path, values: np.ndarray, mask: np.ndarray, label: str, v
     top = vmax if vmax is not None else (float(values[mask].max()) if mask.any() else 1.0)
     h, w = values.shape
     fig, ax = plt.subplots(figsize=(3.2, 3.2 * h / w + 0.1), dpi=100)
-    cm = matplotlib.colormaps[cmap].copy()
-    cm.set_bad("#808080")
+    cm = matplotlib.colormaps[cmap].with_extremes(bad="#808080")
     im = ax.imshow(data, cmap=cm, vmin=0.0, vmax=max(top, 1e-6), interpolation="nearest")
     ax.set_axis_off()
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label=label)

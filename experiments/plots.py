@@ -35,7 +35,11 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     def panel(r):  # one panel per scene and material variant, one line per face size and mapping
         return (r["scene"], r["exponent"], r["f0"] if "fresnel" in r["effects"] else None, r["env"])
 
-    panels = sorted({panel(r) for r in glossy}, key=str)[:8]
+    biases = defaultdict(set)  # only panels that actually sweep the bias (paper mapping, two biases or more)
+    for r in glossy:
+        if r["lod_mapping"] == "paper":
+            biases[panel(r)].add(r["lod_bias"])
+    panels = sorted((k for k, b in biases.items() if len(b) >= 2), key=str)[:8]
     if not panels:
         return False
     plt = _plt()
