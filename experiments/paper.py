@@ -88,6 +88,7 @@ class Suite:
         self.results = out / RESULTS
         self.done = {r["id"]: r for r in read_rows(self.results)}
         self.used: list[str] = []
+        self.reused = 0  # rows found in results.jsonl from an interrupted or earlier run
         (out / "figures").mkdir(parents=True, exist_ok=True)
 
     def base(self) -> dict:
@@ -101,6 +102,8 @@ class Suite:
         if rid not in self.done:
             self.done[rid] = run_row(self.out, spec, ov, {"experiment": experiment})
             append_row(self.results, self.done[rid])
+        elif rid not in self.used:
+            self.reused += 1
         if rid not in self.used:
             self.used.append(rid)
         self.progress()
@@ -413,8 +416,9 @@ def run(out: Path, quick: bool = False) -> Path:
     suite.keep_only_used()
     total = time.perf_counter() - t0
     subtitle = (f"{'quick' if quick else 'full'} suite, {settings.size}x{settings.size} pixels, references at "
-                f"{settings.spp} spp; ran in {total / 60:.1f} min (" +
-                ", ".join(f"{k} {v:.0f} s" for k, v in timings.items()) + ")")
+                f"{settings.spp} spp; this run took {total / 60:.1f} min (" +
+                ", ".join(f"{k} {v:.0f} s" for k, v in timings.items()) + f"), reusing {suite.reused} of "
+                f"{len(suite.used)} compared configurations already in {RESULTS}")
     (out / report.SECTIONS).write_text(json.dumps({
         "title": TITLE, "subtitle": subtitle, "quick": quick, "seconds": timings, "total_s": total,
         "sections": [vars(s) for s in sections]}, indent=1))
