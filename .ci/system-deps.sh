@@ -1,17 +1,28 @@
 #!/usr/bin/env bash
 # Installs the Debian packages iblcheck needs when they are missing and apt-get is usable.
 # Idempotent and quick when everything is present.
+#   (no argument)  libllvm19 (Mitsuba's llvm variant; Debian 12's LLVM 15 aborts) and EGL/Mesa
+#   --test         also headless Chromium for the report test; best effort: if it cannot be
+#                  installed, that one test skips and says why
 set -euo pipefail
 need=()
 ls /usr/lib/*/libLLVM-19.so* >/dev/null 2>&1 || ls /usr/lib/*/libLLVM.so.19* >/dev/null 2>&1 || need+=(libllvm19)
 ls /usr/lib/*/libEGL.so.1 >/dev/null 2>&1 || need+=(libegl1 libgl1-mesa-dri)
-# `--test`: headless Chromium for the report test (it opens the HTML report and reads the console)
-if [ "${1:-}" = "--test" ]; then command -v chromium >/dev/null || need+=(chromium); fi
-[ ${#need[@]} -eq 0 ] && exit 0
+want_chromium=0
+if [ "${1:-}" = "--test" ] && ! command -v chromium >/dev/null; then want_chromium=1; fi
+[ ${#need[@]} -eq 0 ] && [ $want_chromium -eq 0 ] && exit 0
 if [ "$(id -u)" = 0 ] && command -v apt-get >/dev/null; then
-  echo "installing Debian packages: ${need[*]}"
   apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
+  if [ ${#need[@]} -gt 0 ]; then
+    echo "installing Debian packages: ${need[*]}"
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq "${need[@]}" >/dev/null
+  fi
+  if [ $want_chromium -eq 1 ]; then
+    echo "installing Debian's chromium (for the report test)"
+    DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium >/dev/null \
+      || echo "warning: chromium could not be installed; the report's browser test will skip" >&2
+  fi
 else
-  echo "warning: missing Debian packages ${need[*]} (not root or no apt-get); Mitsuba falls back to scalar_rgb" >&2
+  [ $want_chromium -eq 1 ] && need+=(chromium)
+  echo "warning: missing Debian packages ${need[*]} (not root or no apt-get)" >&2
 fi
