@@ -23,9 +23,9 @@ def save_heatmap(path: Path, values: np.ndarray, mask: np.ndarray, label: str, v
     """A masked scalar map with a colour bar (pixels outside the mask are grey)."""
     import matplotlib
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from .plots import pyplot, save
 
+    plt = pyplot()
     data = np.ma.masked_where(~mask, values)
     top = vmax if vmax is not None else (float(values[mask].max()) if mask.any() else 1.0)
     h, w = values.shape
@@ -34,10 +34,7 @@ def save_heatmap(path: Path, values: np.ndarray, mask: np.ndarray, label: str, v
     im = ax.imshow(data, cmap=cm, vmin=0.0, vmax=max(top, 1e-6), interpolation="nearest")
     ax.set_axis_off()
     fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04, label=label)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    save(fig, path, dpi=100)
 
 
 def save_comparison(root: Path, folder: Path, scene, test, reference, mask: np.ndarray) -> dict[str, str]:

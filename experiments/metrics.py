@@ -12,6 +12,7 @@ Conventions:
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
 
@@ -29,8 +30,13 @@ def display(scene, rgb: np.ndarray) -> np.ndarray:
     The same parameters for every image of a scene (never an image-adaptive key per image).
     """
     tm = scene.tonemap
-    lum = adaptation_luminance(scene.environment.radiance())
-    return tonemap(rgb, tm.key, tm.white, tm.exposure, lum)
+    return tonemap(rgb, tm.key, tm.white, tm.exposure, _adaptation(scene.environment))
+
+
+@lru_cache(maxsize=32)
+def _adaptation(environment) -> float:
+    """The environment's log-average luminance, once per (frozen, hashable) environment setting."""
+    return adaptation_luminance(environment.radiance())
 
 
 def common_mask(mask_a: np.ndarray, mask_b: np.ndarray, erode: int = 1) -> np.ndarray:

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import metrics
+from . import metrics, plots
 from .report import Section
 from .sweep import RESULTS, append_row, read_rows, row_id, run_row
 
@@ -51,15 +51,6 @@ FULL = Settings(size=192, spp=1024, frames=30, e1_faces=(8, 16, 32, 64, 128, 256
 TITLE = "iblcheck paper suite: Gu et al. 2006 against Mitsuba 3"
 EXPONENTS = (10.0, 50.0, 200.0, 1000.0)
 F0S = (0.02, 0.04, 0.5, 1.0)
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def md_table(header: list[str], rows: list[list]) -> str:
@@ -137,20 +128,17 @@ class Suite:
         rows, table = [], []
         for s in self.s.e1_faces:
             r = self.row(spec, {"realtime.face_size": s}, "E1")
-            import realtime
-
-            sc = scenes.load(spec).with_overrides({**self.base(), "realtime.face_size": s,
-                                                   "realtime.timing_frames": 1, "realtime.warmup_frames": 0})
-            coeffs = np.asarray(realtime.render(sc).meta["sh_coeffs"])
-            e_sh = sh.irradiance_from_sh(coeffs, normals)
+            _, test = self.image_of(r)
+            e_sh = sh.irradiance_from_sh(np.asarray(test.meta["sh_coeffs"]), normals)
             sh_err = float(np.sqrt(np.mean((e_sh - exact) ** 2)) / np.sqrt(np.mean(exact**2)))
-            vs_brute = self._psnr_against(scene, r, brute)
+            mask = metrics.common_mask(test.mask, brute.mask)
+            vs_brute = metrics.psnr(metrics.display(scene, test.rgb), metrics.display(scene, brute.rgb), mask)
             rows.append({**r, "sh_rel_rms": sh_err, "psnr_vs_brute": vs_brute})
             table.append([s, f2(r["psnr"]), f2(r["noise_floor_psnr"]), f2(vs_brute), f"{100 * sh_err:.3f}%",
                           f2(r["realtime_ms"]["filter"]), f2(r["realtime_ms"]["draw"])])
         header = ["face size", "PSNR vs reference", "noise floor", "PSNR vs brute force", "SH9 irradiance rel. RMS",
                   "filter ms", "draw ms"]
-        plt = _plt()
+        plt = plots.pyplot()
         fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
         faces = [r["face_size"] for r in rows]
         ax[0].plot(faces, [r["psnr"] for r in rows], "o-", label="vs reference")
@@ -166,9 +154,7 @@ class Suite:
         ax[1].set_ylabel("SH9 irradiance error vs exact (% RMS)")
         for a in ax:
             a.grid(alpha=0.3, which="both")
-        fig.tight_layout()
-        fig.savefig(self.out / "figures/e1_diffuse.png", dpi=90)
-        plt.close(fig)
+        plots.save(fig, self.out / "figures/e1_diffuse.png")
         note = (f"Brute-force irradiance convolution (quadrature over a {quadrature.DIFFUSE_WIDTH}-wide cell grid, "
                 f"numpy on the CPU): {brute_s:.1f} s for the whole {self.s.size}x{self.s.size} image, "
                 f"{conv_ms:.3f} ms per normal; SH9 replaces it by a 4x4 matrix per channel.")
@@ -176,15 +162,16 @@ class Suite:
         return Section("E1 diffuse: SH9 irradiance by face size", html_table(header, table) + f"<p>{note}</p>"
                        + figure_html("figures/e1_diffuse.png", "E1"), md, ["figures/e1_diffuse.png"])
 
-    def _psnr_against(self, scene, row: dict, other) -> float | None:
+    @staticmethod
+    def image_of(row: dict):
+        """(scene, real-time Render) of a compared row, re-rendered with one frame: rows keep metrics,
+        not images, and the image does not depend on how many frames were timed."""
         import realtime
         import scenes
 
         sc = scenes.load(row["spec"]).with_overrides({**row["overrides"], "realtime.timing_frames": 1,
                                                        "realtime.warmup_frames": 0})
-        test = realtime.render(sc)
-        mask = metrics.common_mask(test.mask, other.mask)
-        return metrics.psnr(metrics.display(scene, test.rgb), metrics.display(scene, other.rgb), mask)
+        return sc, realtime.render(sc)
 
     # ----------------------------------------------------------------------------- E2
     def e2(self) -> Section:
@@ -207,7 +194,7 @@ class Suite:
                               f2(mc["psnr"]), f2(top["noise_floor_psnr"])])
         header = ["N", "face size", "best bias (paper mapping)", "PSNR at best", "McGuire offset",
                   "PSNR with McGuire", "noise floor"]
-        plt = _plt()
+        plt = plots.pyplot()
         fig, axes = plt.subplots(1, len(EXPONENTS), figsize=(4 * len(EXPONENTS), 3.4), squeeze=False)
         for j, n in enumerate(EXPONENTS):
             ax = axes[0, j]
@@ -220,9 +207,7 @@ class Suite:
             ax.set_ylabel("PSNR (dB)")
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7, title="face")
-        fig.tight_layout()
-        fig.savefig(self.out / "figures/e2_glossy.png", dpi=90)
-        plt.close(fig)
+        plots.save(fig, self.out / "figures/e2_glossy.png")
         md = md_table(header, table)
         return Section("E2 glossy: best LOD bias per exponent and face size", html_table(header, table)
                        + figure_html("figures/e2_glossy.png", "E2"), md, ["figures/e2_glossy.png"])
@@ -230,21 +215,18 @@ class Suite:
     # ----------------------------------------------------------------------------- E3
     def e3(self) -> Section:
         import groundtruth
-        import realtime
-        import scenes
         from groundtruth import raycast
 
         spec = "builtin:sphere-blend"
-        plt = _plt()
+        plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
         table = []
         edges = np.linspace(0.0, 1.0, 11)
         for f0 in F0S:
             # glossy LOD from McGuire's mapping, so that the error left is the blend's, not a bias choice
             r = self.row(spec, {"objects.*.material.f0": f0, "realtime.lod_mapping": "mcguire"}, "E3")
-            sc = scenes.load(spec).with_overrides(r["overrides"] | {"realtime.timing_frames": 1,
-                                                                     "realtime.warmup_frames": 0})
-            test, ref = realtime.render(sc), groundtruth.render(sc)
+            sc, test = self.image_of(r)
+            ref = groundtruth.render(sc)  # cached by the row
             mask = metrics.common_mask(test.mask, ref.mask)
             hits = raycast.cast(sc, 1)
             cos_nv = np.clip((hits.normal * -hits.direction).sum(-1)[..., 0], 0, 1)
@@ -264,9 +246,7 @@ class Suite:
         ax.set_title("Fresnel blends: error against viewing angle")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(self.out / "figures/e3_fresnel.png", dpi=90)
-        plt.close(fig)
+        plots.save(fig, self.out / "figures/e3_fresnel.png")
         header = ["f0", "PSNR", "SSIM", "RMS error at grazing (n.v < 0.1)", "RMS error facing (n.v > 0.9)"]
         note = ("sphere-blend (N = 100, face size 64) with the glossy LOD from McGuire's mapping; RMS of the "
                 "display-space error in bands of n.v, plotted against the viewing angle acos(n.v).")
@@ -302,7 +282,7 @@ class Suite:
                 series.setdefault(label, []).append((s, total))
                 table.append([label, s, f2(r.timings["filter"]), f2(r.timings["draw"]), f2(disp), f2(total)])
                 self.progress()
-        plt = _plt()
+        plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
         for label, pts in series.items():
             ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label=label)
@@ -313,14 +293,13 @@ class Suite:
         ax.set_title("Frame time by effect set (map refiltered every frame)")
         ax.grid(alpha=0.3, which="both")
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(self.out / "figures/e4_frame_time.png", dpi=90)
-        plt.close(fig)
+        plots.save(fig, self.out / "figures/e4_frame_time.png")
         header = ["effects", "face size", "filter ms", "draw ms", "tone map ms", "total ms"]
         from realtime.context import renderer_name
 
-        note = (f"{self.s.size}x{self.s.size} pixels, base 256, median of {max(self.s.frames, 20)} frames after "
-                f"warm-up, the environment turned 1 degree per frame; GL: {renderer_name()}.")
+        note = (f"{self.s.size}x{self.s.size} pixels, base {sc.realtime.base_size}, median of "
+                f"{max(self.s.frames, 20)} frames after warm-up, the environment turned 1 degree per frame; "
+                f"GL: {renderer_name()}.")
         return Section("E4 frame time by effect set and face size", html_table(header, table) + f"<p>{note}</p>"
                        + figure_html("figures/e4_frame_time.png", "E4"), md_table(header, table) + "\n\n" + note,
                        ["figures/e4_frame_time.png"])
@@ -343,7 +322,7 @@ class Suite:
             pts.append((spp, floor, secs))
             table.append([spp, f2(floor), f"{secs:.2f}"])
             self.progress()
-        plt = _plt()
+        plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.0, 3.8))
         ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", label="noise floor")
         ax.set_xscale("log", base=2)
@@ -354,9 +333,7 @@ class Suite:
         ax2.set_yscale("log")
         ax2.set_ylabel("render seconds", color="tab:red")
         ax.grid(alpha=0.3, which="both")
-        fig.tight_layout()
-        fig.savefig(self.out / "figures/e5_convergence.png", dpi=90)
-        plt.close(fig)
+        plots.save(fig, self.out / "figures/e5_convergence.png")
         from groundtruth.variant import variant_name
 
         header = ["spp", "noise floor PSNR (dB)", "render s (median of 2)"]

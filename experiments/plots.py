@@ -8,13 +8,22 @@ from pathlib import Path
 import numpy as np
 
 
-def _plt():
+def pyplot():
+    """matplotlib.pyplot on the headless Agg backend."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def save(fig, path: Path, dpi: int = 90) -> None:
+    """Lay out, write and close a figure."""
+    fig.tight_layout()
+    Path(path).parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=dpi)
+    pyplot().close(fig)
 
 
 def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
@@ -42,7 +51,7 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     panels = sorted((k for k, b in biases.items() if len(b) >= 2), key=str)[:8]
     if not panels:
         return False
-    plt = _plt()
+    plt = pyplot()
     fig, axes = plt.subplots(2, len(panels), figsize=(3.6 * len(panels), 6.4), squeeze=False)
     for j, key in enumerate(panels):
         series = defaultdict(list)
@@ -62,9 +71,7 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
         axes[0, j].legend(title="face", fontsize=8)
         for ax in axes[:, j]:
             ax.grid(alpha=0.3)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save(fig, path)
     return True
 
 
@@ -73,7 +80,7 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     pts = [r for r in rows if r.get("psnr") is not None and r["realtime_ms"].get("total")]
     if not pts:
         return False
-    plt = _plt()
+    plt = pyplot()
     t = np.array([r["realtime_ms"]["total"] for r in pts])
     p = np.array([r["psnr"] for r in pts])
     from matplotlib.ticker import ScalarFormatter
@@ -93,9 +100,7 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     ax.set_title("What accuracy costs in time")
     ax.grid(alpha=0.3, which="both")
     ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save(fig, path)
     return True
 
 
@@ -108,7 +113,7 @@ def cost_vs_size(rows: list[dict], path: Path) -> bool:
                 by[r["face_size"]][k].append(r["realtime_ms"][k])
     if not by:
         return False
-    plt = _plt()
+    plt = pyplot()
     sizes = sorted(by)
     fig, ax = plt.subplots(figsize=(6.0, 4.2))
     for k, m in (("filter", "o"), ("draw", "s")):
@@ -119,7 +124,5 @@ def cost_vs_size(rows: list[dict], path: Path) -> bool:
     ax.set_ylabel("time (ms, median over configurations)")
     ax.grid(alpha=0.3, which="both")
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save(fig, path)
     return True

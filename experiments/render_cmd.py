@@ -10,8 +10,8 @@ import numpy as np
 
 from scenes import imageio
 from scenes.render import Render
-from scenes.tonemap import adaptation_luminance, to_uint8, tonemap
 
+from . import images, metrics
 from .cli import UsageError, load_scene
 
 
@@ -35,16 +35,7 @@ def write_outputs(out: Path, scene, result: Render) -> None:
     """OUT.exr with R, G, B, A (A = coverage mask) and OUT.png, tone-mapped like the metrics."""
     out.parent.mkdir(parents=True, exist_ok=True)
     imageio.write_exr(out, result.rgb, alpha=result.mask.astype(np.float32))
-    tm = scene.tonemap
-    lum = adaptation_luminance(scene.environment.radiance())
-    srgb = tonemap(result.rgb, tm.key, tm.white, tm.exposure, lum)
-    write_png(out.with_suffix(".png"), to_uint8(srgb))
-
-
-def write_png(path: Path, rgb8: np.ndarray) -> None:
-    import matplotlib.image
-
-    matplotlib.image.imsave(str(path), rgb8)
+    images.save_png(out.with_suffix(".png"), metrics.display(scene, result.rgb))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -20,8 +20,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from . import images
-from .comparison import compare
+from . import comparison, images
 
 RESULTS = "results.jsonl"
 
@@ -105,19 +104,13 @@ def plan(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[t
 
 def run_row(out_dir: Path, spec: str, overrides: dict, extra: dict | None = None) -> dict:
     """Render one configuration in real time, its (cached) reference, compare, save the pictures."""
-    import groundtruth
-    import realtime
     import scenes
 
     scene = scenes.load(spec).with_overrides(overrides)
-    reference = groundtruth.render(scene)
-    test = realtime.render(scene)
-    result = compare(test, reference, scene)
-    from .metrics import common_mask
-
-    mask = common_mask(test.mask, reference.mask)
+    c = comparison.run(scene)
+    test = c.test
     rid, ref_id = row_id(spec, overrides), reference_id(spec, overrides)
-    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, reference, mask)
+    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, c.reference, c.mask)
     rt = scene.realtime
     mat = scene.objects[0].material
     row = {
@@ -127,7 +120,7 @@ def run_row(out_dir: Path, spec: str, overrides: dict, extra: dict | None = None
         "env": scene.environment.map, "effects": sorted(scene.effects),
         "width": scene.camera.width, "height": scene.camera.height,
         "realtime_p90_ms": {k: test.timings.get(f"{k}_p90") for k in ("filter", "draw", "total")},
-        "images": pics, **result, **(extra or {}),
+        "images": pics, **c.metrics, **(extra or {}),
     }
     return row
 

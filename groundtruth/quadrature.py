@@ -227,20 +227,21 @@ def _glossy_lobe_frame(env: np.ndarray, r: np.ndarray, normals: np.ndarray, expo
 # --------------------------------------------------------------------------- rendering
 
 
-def shade(material, env_frame_env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> np.ndarray:
+def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> np.ndarray:
     """Outgoing radiance (P, 3) of the paper's reflectance at points with unit `normals` seen from `views`.
 
-    Both are in the environment's own frame; `views` point from the surface towards the camera.
+    `env` is the (H, W, 3) map; normals and views are in its own (unrotated) frame, views pointing
+    from the surface towards the camera.
     """
     n_dot_v = (normals * views).sum(axis=1)
     wd, wg = lobe_weights(material, n_dot_v)
     out = np.zeros((len(normals), 3))
     if material.has_diffuse:
-        grid = cell_grid(env_frame_env, DIFFUSE_WIDTH)
+        grid = cell_grid(env, DIFFUSE_WIDTH)
         out += wd[:, None] * np.asarray(material.kd) * irradiance(grid, normals)  # kd / pi * E, E / pi summed
     if material.has_glossy:
         r = normalize(reflect(views, normals))
-        out += wg[:, None] * np.asarray(material.ks) * glossy(env_frame_env, r, normals, material.exponent)
+        out += wg[:, None] * np.asarray(material.ks) * glossy(env, r, normals, material.exponent)
     return out
 
 

@@ -41,13 +41,13 @@ def render(scene) -> Render:
     need_sh = "diffuse" in effects
     chain_to = None if "glossy" in effects else level  # glossy reads the whole chain
 
+    env = scene.environment.radiance()
     window = None
     if need_sh:  # the deringing window, chosen once (a turn about +Y does not change min E)
         from . import deringing, sh
 
-        env = scene.environment.radiance()
         window = deringing.choose(rt.sh_window, sh.project_equirect(env, scene.environment.rotation_deg))
-    env_filter = EnvironmentFilter(ctx, scene.environment.radiance(), rt.base_size)
+    env_filter = EnvironmentFilter(ctx, env, rt.base_size)
     drawer = SceneDrawer(ctx, scene, env_filter)
 
     def filter_work(rotation: float) -> None:

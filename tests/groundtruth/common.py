@@ -6,7 +6,7 @@ import numpy as np
 
 import scenes
 from experiments import metrics
-from tests.helpers import write_scene
+from tests.helpers import sphere_scene_text, write_scene
 
 
 def furnace_scene(tmp_path, material: str, size: int = 32, spp: int = 64, integrator: str = "auto",
@@ -17,24 +17,9 @@ def furnace_scene(tmp_path, material: str, size: int = 32, spp: int = 64, integr
     facet's plane but above the interpolated normal's horizon are blocked by the mesh itself (the
     shadow terminator), which costs a wide lobe ~0.3% at the default 64 x 32 and ~0.05% here.
     """
-    text = f"""
-name = "furnace"
-[environment]
-map = "builtin:constant"
-params = {{ radiance = 1.0 }}
-[camera]
-origin = [0.0, 0.0, 4.0]
-fov_deg = 32.0
-width = {size}
-height = {size}
-[[objects]]
-shape = "sphere"
-resolution = {resolution}
-material = {material}
-[reference]
-spp = {spp}
-integrator = "{integrator}"
-"""
+    text = sphere_scene_text("furnace", 'map = "builtin:constant"\nparams = { radiance = 1.0 }', material, size,
+                             object_lines=f"resolution = {resolution}",
+                             tables=f'[reference]\nspp = {spp}\nintegrator = "{integrator}"')
     return scenes.load(write_scene(tmp_path, text))
 
 

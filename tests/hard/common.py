@@ -9,32 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
+from tests.helpers import sphere_scene_text
+
 ROOT = Path(__file__).resolve().parents[2]
-
-TINY_SCENE = """
-name = "{name}"
-[environment]
-map = "{env}"
-[camera]
-origin = [0.0, 0.0, 4.0]
-fov_deg = 32.0
-width = {size}
-height = {size}
-[[objects]]
-shape = "{shape}"
-material = {material}
-[realtime]
-timing_frames = 1
-warmup_frames = 0
-[reference]
-spp = 8
-"""
-
 
 def write_tiny(folder: Path, env: str = "builtin:uffizi", shape: str = "sphere", size: int = 16,
                material: str = '{ type = "blend" }', name: str = "tiny", extra: str = "") -> Path:
     path = folder / f"{name}.toml"
-    path.write_text(TINY_SCENE.format(name=name, env=env, shape=shape, size=size, material=material) + extra)
+    tables = "[realtime]\ntiming_frames = 1\nwarmup_frames = 0\n[reference]\nspp = 8"
+    path.write_text(sphere_scene_text(name, f'map = "{env}"', material, size, shape=shape, tables=tables) + extra)
     return path
 
 
