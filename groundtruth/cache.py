@@ -70,9 +70,9 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
 
 def vars_of(material) -> dict:
     """The material fields that matter to its type (an unused kd must not split the cache)."""
-    keep = {"diffuse": ("type", "kd"), "phong": ("type", "ks", "exponent"),
-            "blend": ("type", "kd", "ks", "exponent", "f0")}[material.type]
-    return {k: getattr(material, k) for k in keep}
+    from scenes import materials
+
+    return materials.used_fields(material)
 
 
 def _checksum(rgb: np.ndarray, mask: np.ndarray, meta_json: str) -> str:

@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from scenes import materials
+
 from . import paper_bsdf
 
 
@@ -53,10 +55,11 @@ def physical_material(material) -> dict:
     Fresnel-free GGX lobe, as the paper's phong has F = 1); blend -> `roughplastic` (GGX coat
     over a diffuse base) with alpha from the exponent and `int_ior` from f0.
     """
-    if material.type == "diffuse":
+    fresnel = materials.of(material).fresnel
+    if fresnel == "zero":
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(material.kd)}}
     alpha = phong_to_alpha(material.exponent)
-    if material.type == "phong":
+    if fresnel == "one":
         return {"type": "roughconductor", "distribution": "ggx", "alpha": alpha, "material": "none",
                 "specular_reflectance": {"type": "rgb", "value": list(material.ks)}}
     return {"type": "roughplastic", "distribution": "ggx", "alpha": alpha, "int_ior": f0_to_ior(material.f0),

@@ -23,10 +23,11 @@ from __future__ import annotations
 
 import math
 
+from scenes import materials
+
 PLUGIN_NAME = "iblcheck_paper"
 #: bump when the plugin's math or sampling changes: it is part of the reference cache key
 PLUGIN_VERSION = 3
-MATERIAL_CODES = {"diffuse": 0, "phong": 1, "blend": 2}
 
 _registered = False
 
@@ -57,10 +58,13 @@ def register(mi) -> None:
 def make_class(mi):
     import drjit as dr
 
+    from scenes import materials
+
     class PaperBSDF(mi.BSDF):
         def __init__(self, props):
             mi.BSDF.__init__(self, props)
-            self.code = int(props.get("material", 2))
+            self.code = int(props.get("material", materials.TYPES["blend"].code))
+            self.fresnel_kind = {t.code: t.fresnel for t in materials.TYPES.values()}[self.code]
             self.kd = mi.Color3f(props.get("kd_r", 0.8), props.get("kd_g", 0.8), props.get("kd_b", 0.8))
             self.ks = mi.Color3f(props.get("ks_r", 1.0), props.get("ks_g", 1.0), props.get("ks_b", 1.0))
             self.exponent = float(props.get("exponent", 100.0))
@@ -74,9 +78,9 @@ def make_class(mi):
 
         # -- the two lobes' weights (1 - F, F) and the mixture's selection probability
         def _fresnel(self, cos_i):
-            if self.code == 0:
+            if self.fresnel_kind == "zero":
                 return mi.Float(0.0)
-            if self.code == 1:
+            if self.fresnel_kind == "one":
                 return mi.Float(1.0)
             c = dr.clip(cos_i, 0.0, 1.0)
             return self.f0 + (1.0 - self.f0) * dr.power(1.0 - c, 5.0)
@@ -164,10 +168,10 @@ def make_class(mi):
 
 def material_dict(material) -> dict:
     """The `load_dict` entry of a scenes.Material for the `iblcheck_paper` plugin."""
-    d = {"type": PLUGIN_NAME, "material": MATERIAL_CODES[material.type],
-         "exponent": float(material.exponent), "f0": float(material.f0)}
-    kd = material.kd if material.type != "phong" else (0.0, 0.0, 0.0)
-    ks = material.ks if material.type != "diffuse" else (0.0, 0.0, 0.0)
+    kind = materials.of(material)
+    d = {"type": PLUGIN_NAME, "material": kind.code, "exponent": float(material.exponent), "f0": float(material.f0)}
+    kd = material.kd if kind.diffuse_lobe else materials.BLACK
+    ks = material.ks if kind.glossy_lobe else materials.BLACK
     for name, rgb in (("kd", kd), ("ks", ks)):
         for c, value in zip("rgb", rgb, strict=True):
             d[f"{name}_{c}"] = float(value)

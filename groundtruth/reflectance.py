@@ -23,10 +23,13 @@ def schlick(f0: float, n_dot_v: np.ndarray) -> np.ndarray:
 
 def lobe_weights(material, n_dot_v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(w_diffuse, w_glossy) per shading point: (1, 0) diffuse, (0, 1) phong, (1 - F, F) blend."""
+    from scenes import materials
+
     n_dot_v = np.asarray(n_dot_v, dtype=np.float64)
-    if material.type == "diffuse":
+    fresnel = materials.of(material).fresnel
+    if fresnel == "zero":
         return np.ones_like(n_dot_v), np.zeros_like(n_dot_v)
-    if material.type == "phong":
+    if fresnel == "one":
         return np.zeros_like(n_dot_v), np.ones_like(n_dot_v)
     f = schlick(material.f0, n_dot_v)
     return 1.0 - f, f

@@ -21,8 +21,10 @@ from importlib import resources
 import moderngl
 import numpy as np
 
-from scenes import cubemap
+from scenes import cubemap, materials, shbasis
 from scenes.directions import direction_to_uv, rotation_y
+
+from . import levels
 
 _INCLUDE = re.compile(r'^#include "([\w.]+)"\s*$', re.M)
 
@@ -33,8 +35,13 @@ def shader_text(name: str) -> str:
 
 
 def shader_source(name: str, defines: tuple[str, ...] = ()) -> str:
-    """A shader's text with `#include "file"` expanded and `#define`s inserted after #version."""
-    text = _INCLUDE.sub(lambda m: shader_text(m.group(1)), shader_text(name))
+    """A shader's text with `#include "file"` expanded (recursively) and `#define`s inserted after
+    #version. A define is "NAME" or "NAME VALUE"."""
+    text = shader_text(name)
+    for _ in range(8):  # includes nest a few levels at most
+        text, n = _INCLUDE.subn(lambda m: shader_text(m.group(1)), text)
+        if not n:
+            break
     head, _, rest = text.partition("\n")
     return head + "\n" + "".join(f"#define {d}\n" for d in defines) + rest
 
@@ -67,8 +74,8 @@ class EnvironmentFilter:
         self.cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self.fill_prog = ctx.compute_shader(shader_source("env_to_cube.comp"))
         self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
-        self.sh_prog = ctx.compute_shader(shader_source("sh_project.comp"))
-        self.reduce_prog = ctx.compute_shader(shader_source("sh_reduce.comp"))
+        self.sh_prog = ctx.compute_shader(shader_source("sh_project.comp", sh9_defines()))
+        self.reduce_prog = ctx.compute_shader(shader_source("sh_reduce.comp", sh9_defines()))
         u, v = direction_to_uv(cubemap.texel_directions(base_size))
         uv = np.stack([u, v], axis=-1).reshape(6 * base_size, base_size, 2).astype("f4")
         self.texel_uv = ctx.texture((base_size, 6 * base_size), 2, uv.tobytes(), dtype="f4")
@@ -101,7 +108,7 @@ class EnvironmentFilter:
             self.ctx.memory_barrier()
 
     def project_sh(self, face_size: int, window=(1.0, 1.0, 1.0)) -> None:
-        level = int(round(math.log2(self.base_size / face_size)))
+        level = levels.level_of(face_size, self.base_size)
         block = max(1, min(4, face_size // 8))  # texels per invocation along each axis
         tiles = groups(face_size, 8 * block)
         n_groups = 6 * tiles * tiles
@@ -157,22 +164,32 @@ class EnvironmentFilter:
             obj.release()
 
 
-MATERIAL_CODE = {"diffuse": 0, "phong": 1, "blend": 2}
+def sh9_defines() -> tuple[str, ...]:
+    """The SH9 basis constants (scenes/shbasis.py) and the paper's c1..c5 (realtime/sh.py) as
+    #defines: the constants live once, in Python."""
+    from . import sh
+
+    basis = (f"SH_C{i} {c!r}" for i, c in enumerate((shbasis.C0, shbasis.C1, shbasis.C2, shbasis.C3, shbasis.C4)))
+    paper = (f"SH_M{i} {c!r}" for i, c in enumerate((sh.C1, sh.C2, sh.C3, sh.C4, sh.C5), start=1))
+    return (*basis, *paper)
 
 
 class SceneDrawer:
-    """Draws the environment background and the scene's objects into a float32 RGBA target."""
+    """Draws the environment background and the scene's objects into a float32 RGBA target, with a
+    shading program compiled for the scene's effects and techniques only."""
 
-    def __init__(self, ctx: moderngl.Context, scene, env_filter: EnvironmentFilter) -> None:
+    def __init__(self, ctx: moderngl.Context, scene, env_filter: EnvironmentFilter, techniques=()) -> None:
         self.ctx = ctx
         self.scene = scene
         self.filter = env_filter
+        self.techniques = list(techniques)
         cam = scene.camera
         self.width, self.height = cam.width, cam.height
-        defines = tuple(f"HAS_{e.upper()}" for e in ("diffuse", "glossy", "fresnel") if e in scene.effects)
-        self.defines = defines
+        effects = tuple(f"HAS_{e.upper()}" for e in ("diffuse", "glossy", "fresnel") if e in scene.effects)
+        extra = tuple(d for t in self.techniques for d in t.defines())
+        self.defines = effects + extra + materials.glsl_defines()
         self.prog = ctx.program(vertex_shader=shader_source("shade.vert"),
-                                fragment_shader=shader_source("shade.frag", defines))
+                                fragment_shader=shader_source("shade.frag", self.defines))
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))
         self.bg_vao = ctx.vertex_array(self.bg_prog, [])
@@ -212,31 +229,25 @@ class SceneDrawer:
         self.bg_prog["world_to_env"].write(mat_bytes(world_to_env(rotation_deg)))
         self.bg_vao.render(moderngl.TRIANGLES, vertices=3)
 
-    def draw(self, face_size: int) -> None:
-        """The shading pass of the paper's method: every object, depth-tested (`draw`)."""
-        ctx, rt = self.ctx, self.scene.realtime
+    def draw(self) -> None:
+        """The shading pass: every object, depth-tested (`draw`)."""
+        ctx = self.ctx
         self.fbo.use()
         ctx.viewport = (0, 0, self.width, self.height)
         ctx.enable(moderngl.DEPTH_TEST)
         p = self.prog
-        self.filter.cube.use(1)
-        self.filter.sh_buffer.bind_to_storage_buffer(2)
-        _set(p, "env_cube", 1)
+        for t in self.techniques:
+            t.bind(p)
         p["view_proj"].write(mat_bytes(self.view_proj))
         _set(p, "camera_position", tuple(self.scene.camera.origin))
-        base = self.filter.base_size
-        _set(p, "level_lod", math.log2(base / face_size))
-        _set(p, "lod_bias", rt.lod_bias)
-        _set(p, "face_size", float(face_size))
-        _set(p, "max_lod", float(self.filter.n_levels - 1))
-        _set(p, "lod_mapping", 1 if rt.lod_mapping == "mcguire" else 0)
         for obj, _, _, vao in self.objects:
             m = obj.material
-            _set(p, "material_type", MATERIAL_CODE[m.type])
+            _set(p, "material_type", materials.of(m).code)
             _set(p, "kd", m.kd)
             _set(p, "ks", m.ks)
-            _set(p, "exponent", m.exponent)
             _set(p, "f0", m.f0)
+            for t in self.techniques:
+                t.bind_object(p, obj)
             vao.render(moderngl.TRIANGLES)
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:

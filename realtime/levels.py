@@ -35,7 +35,28 @@ def mcguire_offset(face_size: int, exponent: float) -> float:
 
 
 def glossy_lod(face_size: int, base_size: int, lod_bias: float, mapping: str, exponent: float) -> float:
-    """The LOD textureLod receives (the same formula as shade.frag), clamped to the chain."""
+    """The LOD of the paper's glossy lookup, clamped to the chain: level(s) + offset(N) + bias, offset 0
+    for the paper's mapping and `mcguire_offset` for McGuire's. The only place this formula lives: the
+    shader receives it as the uniform `glossy_lod` (realtime/glossy_box.py)."""
     offset = mcguire_offset(face_size, exponent) if mapping == "mcguire" else 0.0
     max_lod = math.log2(base_size)
     return min(max(level_of(face_size, base_size) + offset + lod_bias, 0.0), max_lod)
+
+
+#: texels per lobe width at which a prefiltered chain is read: the texel spacing 2/w (radians, at a
+#: face centre) is at most half the lobe's width sigma = 1/sqrt(N) (cos^N a ~ exp(-N a^2 / 2)), so
+#: bilinear interpolation of the (smooth) convolved radiance errs by O((spacing / sigma)^2 / 8) < 4%
+PREFILTER_TEXELS_PER_SIGMA = 2.0
+#: never coarser than this face size (an N = 0 lobe is a hemisphere: 1x1 faces would hold 6 values)
+PREFILTER_MIN_FACE = 8
+
+
+def prefiltered_lod(face_size: int, base_size: int, exponent: float) -> float:
+    """The LOD at which a chain prefiltered with exponent N is read: the level whose face size is
+    w = 2 PREFILTER_TEXELS_PER_SIGMA sqrt(N) (at least PREFILTER_MIN_FACE), never finer than the
+    selected face size s. Finer levels than that hold no more information (the radiance is already
+    convolved) and cost 4x per level to prefilter."""
+    w = max(float(PREFILTER_MIN_FACE), 2.0 * PREFILTER_TEXELS_PER_SIGMA * math.sqrt(max(exponent, 0.0)))
+    lobe_level = math.log2(base_size / w)
+    max_lod = math.log2(base_size)
+    return min(max(lobe_level, float(level_of(face_size, base_size)), 0.0), max_lod)

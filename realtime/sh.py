@@ -1,8 +1,10 @@
-"""SH9 projection and the irradiance matrices M of the paper (numpy reference implementation).
+"""SH projection (the paper's SH9, and orders 3-4) and the irradiance matrices M of the paper
+(numpy reference implementation).
 
 Projection (design.md section 3, step 3): L_lm = sum over texels of L(w) Y_lm(w) dOmega(w), with
 exact texel solid angles (cube faces: `scenes.cubemap.texel_solid_angles`; equirect maps:
-`scenes.directions.equirect_solid_angles`).
+`scenes.directions.equirect_solid_angles`). `order` 2 (default) is the paper's 9 coefficients; 3 and 4
+give 16 and 25 (design.md section 9, `sh_order`; basis: `scenes.shbasis.sh_basis`).
 
 Irradiance (Ramamoorthi & Hanrahan 2001, "An efficient representation for irradiance environment
 maps", eq. 12): E(n) = n^T M n with n = (x, y, z, 1) and, per colour channel,
@@ -16,6 +18,9 @@ c1 = 0.429043, c2 = 0.511664, c3 = 0.743125, c4 = 0.886227, c5 = 0.247708. (The 
 c5 = 0.429043; that is a typo: c5 = c3 / 3, which makes a constant environment of radiance 1 give
 E = pi.) The GPU path (shaders sh_project.comp, sh_reduce.comp) computes the same quantities and is
 tested against this module.
+
+Any order: E(n) = sum_lm A_l L_lm Y_lm(n) with A_l = `COSINE_BAND_FACTORS` (pi, 2pi/3, pi/4, 0, -pi/24;
+R&H 2001 eq. 8-9). A_3 = 0: order 3 gives exactly the irradiance of order 2.
 """
 
 from __future__ import annotations
@@ -24,22 +29,27 @@ import numpy as np
 
 from scenes import cubemap
 from scenes.directions import equirect_directions, equirect_solid_angles
-from scenes.shbasis import BAND, sh9
+from scenes.shbasis import COSINE_BAND_FACTORS, band_of, order_of, sh9, sh_basis
 
 C1, C2, C3, C4, C5 = 0.429043, 0.511664, 0.743125, 0.886227, 0.247708
 
 
-def project_cube(faces: np.ndarray) -> np.ndarray:
-    """SH9 coefficients (9, 3) of cube faces (6, s, s, 3 or 4) with exact texel solid angles."""
+def _basis(d: np.ndarray, order: int) -> np.ndarray:
+    # order 2 goes through the module-level sh9 (tests substitute it to evaluate in another frame)
+    return sh9(d) if order == 2 else sh_basis(d, order)
+
+
+def project_cube(faces: np.ndarray, order: int = 2) -> np.ndarray:
+    """SH coefficients ((order + 1)^2, 3) of cube faces (6, s, s, 3 or 4) with exact texel solid angles."""
     faces = np.asarray(faces, dtype=np.float64)[..., :3]
     size = faces.shape[1]
     d = cubemap.texel_directions(size)
     w = np.broadcast_to(cubemap.texel_solid_angles(size), (6, size, size))
-    return np.einsum("fijk,fij,fijc->kc", sh9(d), w, faces)
+    return np.einsum("fijk,fij,fijc->kc", _basis(d, order), w, faces)
 
 
-def project_equirect(env: np.ndarray, rotation_deg: float = 0.0, rows: str = "mitsuba") -> np.ndarray:
-    """SH9 coefficients (9, 3) of an equirect map.
+def project_equirect(env: np.ndarray, rotation_deg: float = 0.0, rows: str = "mitsuba", order: int = 2) -> np.ndarray:
+    """SH coefficients ((order + 1)^2, 3) of an equirect map (order 2: the paper's SH9).
 
     rows="mitsuba" (default): the map as Mitsuba and both renderers see it, row r at polar angle
     pi r / (H - 1) (align-corners), weights = exact band areas.
@@ -66,7 +76,7 @@ def project_equirect(env: np.ndarray, rotation_deg: float = 0.0, rows: str = "mi
         from scenes.directions import rotation_y
 
         d = d @ rotation_y(rotation_deg).T  # the map's sample directions, placed in the world
-    return np.einsum("ijk,ij,ijc->kc", sh9(d), weights, env)
+    return np.einsum("ijk,ij,ijc->kc", _basis(d, order), weights, env)
 
 
 def irradiance_matrices(coeffs: np.ndarray) -> np.ndarray:
@@ -90,12 +100,16 @@ def irradiance(M: np.ndarray, normals: np.ndarray) -> np.ndarray:
 
 
 def irradiance_from_sh(coeffs: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """E(n) = sum_lm A_l L_lm Y_lm(n), the direct SH sum (A_0 = pi, A_1 = 2pi/3, A_2 = pi/4)."""
-    a = np.array([np.pi, 2 * np.pi / 3, np.pi / 4])[BAND]
-    return np.einsum("...k,k,kc->...c", sh9(normals), a, np.asarray(coeffs, dtype=np.float64))
+    """E(n) = sum_lm A_l L_lm Y_lm(n), the direct SH sum (A_0 = pi, A_1 = 2pi/3, A_2 = pi/4, A_3 = 0,
+    A_4 = -pi/24); the order follows from the coefficient count (9, 16 or 25)."""
+    coeffs = np.asarray(coeffs, dtype=np.float64)
+    order = order_of(len(coeffs))
+    a = COSINE_BAND_FACTORS[band_of(order)]
+    return np.einsum("...k,k,kc->...c", _basis(normals, order), a, coeffs)
 
 
 def band_energy(coeffs: np.ndarray) -> np.ndarray:
-    """Energy per band l = 0, 1, 2 (sum of squared coefficients), per channel: (3, C)."""
+    """Energy per band l = 0..order (sum of squared coefficients), per channel: (order + 1, C)."""
     c2 = np.asarray(coeffs, dtype=np.float64) ** 2
-    return np.stack([c2[BAND == b].sum(axis=0) for b in range(3)])
+    band = band_of(order_of(len(c2)))
+    return np.stack([c2[band == b].sum(axis=0) for b in range(band[-1] + 1)])

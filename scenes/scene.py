@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from . import environments, meshes
+from . import environments, materials, meshes
 from .camera import Camera
 from .errors import InputError, SceneError
 
 BUILTIN_PREFIX = "builtin:"
-MATERIAL_TYPES = ("diffuse", "phong", "blend")
+MATERIAL_TYPES = materials.NAMES
 EFFECTS = ("diffuse", "glossy", "fresnel", "occlusion", "interreflection")
 
 
@@ -44,11 +44,11 @@ class Material:
 
     @property
     def has_diffuse(self) -> bool:
-        return self.type in ("diffuse", "blend") and max(self.kd) > 0
+        return materials.of(self).diffuse_lobe and max(self.kd) > 0
 
     @property
     def has_glossy(self) -> bool:
-        return self.type in ("phong", "blend") and max(self.ks) > 0
+        return materials.of(self).glossy_lobe and max(self.ks) > 0
 
 
 @dataclass(frozen=True)
@@ -113,6 +113,45 @@ class ToneMap:
 
 
 @dataclass(frozen=True)
+class Prefiltered:
+    """[realtime.prefiltered]: the Phong-lobe prefiltered chain (realtime/prefilter.py)."""
+    samples: int = 256
+    bias: float = 1.0  # filtered importance sampling: levels added to 0.5 log2(Omega_s / Omega_p)
+
+
+@dataclass(frozen=True)
+class IrradianceMap:
+    """[realtime.irradiance_map]: the exact cosine convolution into a cube map (realtime/irradiance_map.py)."""
+    size: int = 32  # face size of the irradiance cube map
+    source_size: int = 32  # face size of the mip level that is convolved
+
+
+@dataclass(frozen=True)
+class Lights:
+    """[realtime.lights]: the light array (not implemented yet)."""
+    count: int = 42
+    placement: str = "geodesic"
+    shadow_map_size: int = 512
+
+
+@dataclass(frozen=True)
+class Prt:
+    """[realtime.prt]: precomputed radiance transfer (not implemented yet)."""
+    order: int = 2
+    rays: int = 256
+    bounces: int = 0
+
+
+@dataclass(frozen=True)
+class Vct:
+    """[realtime.vct]: voxel cone tracing (not implemented yet)."""
+    resolution: int = 64
+    cascades: int = 3
+    diffuse_cones: int = 6
+    step: float = 0.5
+
+
+@dataclass(frozen=True)
 class Realtime:
     base_size: int = 256
     face_size: int | str = 64
@@ -122,6 +161,18 @@ class Realtime:
     rotate_deg_per_frame: float = 0.0
     timing_frames: int = 30
     warmup_frames: int = 5
+    # the techniques (design.md section 9); the defaults are the paper's method
+    diffuse: str = "sh"
+    sh_order: int = 2
+    glossy: str = "box"
+    occlusion: str = "none"
+    interreflection: str = "none"
+    parameterization: str = "cube"
+    prefiltered: Prefiltered = field(default_factory=Prefiltered)
+    irradiance_map: IrradianceMap = field(default_factory=IrradianceMap)
+    lights: Lights = field(default_factory=Lights)
+    prt: Prt = field(default_factory=Prt)
+    vct: Vct = field(default_factory=Vct)
 
 
 @dataclass(frozen=True)
@@ -161,7 +212,7 @@ class Scene:
             out.add("diffuse")
         if any(o.material.has_glossy for o in self.objects):
             out.add("glossy")
-        if any(o.material.type == "blend" for o in self.objects):
+        if any(materials.of(o.material).fresnel == "schlick" for o in self.objects):
             out.add("fresnel")
         if len(self.objects) > 1 or any(not o.mesh.convex for o in self.objects):
             out |= {"occlusion", "interreflection"}
@@ -300,6 +351,36 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "rotate_deg_per_frame": _num(-360, 360),
         "timing_frames": _num(1, 100000, integer=True),
         "warmup_frames": _num(0, 10000, integer=True),
+        "diffuse": _enum("sh", "irradiance_map", "lights", "prt"),
+        "sh_order": _num(2, 4, integer=True),
+        "glossy": _enum("box", "prefiltered", "lights"),
+        "occlusion": _enum("none", "shadow_maps", "prt", "vct"),
+        "interreflection": _enum("none", "prt", "vct"),
+        "parameterization": _enum("cube", "dual_paraboloid", "sphere_map"),
+    },
+    "realtime.prefiltered": {
+        "samples": _num(1, 65536, integer=True),
+        "bias": _num(-16, 16),
+    },
+    "realtime.irradiance_map": {
+        "size": _pow2(1, 256),
+        "source_size": _pow2(1, 256),
+    },
+    "realtime.lights": {
+        "count": _num(1, 65536, integer=True),
+        "placement": _enum("geodesic", "median_cut"),
+        "shadow_map_size": _pow2(16, 8192),
+    },
+    "realtime.prt": {
+        "order": _num(2, 8, integer=True),
+        "rays": _num(1, 1 << 20, integer=True),
+        "bounces": _num(0, 16, integer=True),
+    },
+    "realtime.vct": {
+        "resolution": _pow2(8, 512),
+        "cascades": _num(1, 4, integer=True),
+        "diffuse_cones": _num(1, 64, integer=True),
+        "step": _num(0, 4, lo_open=True),
     },
     "reference": {
         "spp": _num(1, 1 << 24, integer=True),
@@ -315,8 +396,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     },
 }
 #: keys allowed per material type (the others do not apply and are refused)
-MATERIAL_KEYS = {"diffuse": {"type", "kd"}, "phong": {"type", "ks", "exponent"},
-                 "blend": {"type", "kd", "ks", "exponent", "f0"}}
+MATERIAL_KEYS = {name: set(t.scene_keys) for name, t in materials.TYPES.items()}
 TOP_KEYS = {"name", "environment", "camera", "objects", "tonemap", "realtime", "reference", "gate"}
 
 
@@ -437,7 +517,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         if mat_type not in MATERIAL_TYPES:
             raise fail(f"{prefix}.material.type", mat_type, _enum(*MATERIAL_TYPES)[1])
         mat = section("material", mat_raw, prefix=f"{prefix}.material", allowed_keys=MATERIAL_KEYS[mat_type])
-        defaults = {"diffuse": {"ks": (0.0, 0.0, 0.0)}, "phong": {"kd": (0.0, 0.0, 0.0)}, "blend": {}}[mat_type]
+        defaults = dict(materials.TYPES[mat_type].defaults)
         obj["material"] = Material(**{**defaults, **mat})
         shape = obj.get("shape", "sphere")
         if shape not in meshes.BUILTIN_MESHES:
@@ -450,10 +530,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
             obj["shape"] = str(p)
         objects.append(SceneObject(**obj))
 
-    realtime = Realtime(**section("realtime", tree.get("realtime", {})))
-    fs = realtime.face_size
-    if fs != "auto" and fs > realtime.base_size:
-        raise fail("realtime.face_size", fs, f"at most realtime.base_size = {realtime.base_size}")
+    realtime = _realtime(tree.get("realtime", {}), where, section)
 
     scene = Scene(
         name=name,
@@ -473,6 +550,93 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
     except InputError as exc:
         raise SceneError(f"{where}: {exc}") from None
     return scene
+
+
+# --------------------------------------------------------------------------- techniques
+
+#: the per-technique tables of [realtime] and their dataclasses
+TECHNIQUE_TABLES = {"prefiltered": Prefiltered, "irradiance_map": IrradianceMap, "lights": Lights, "prt": Prt,
+                    "vct": Vct}
+#: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
+#: ignored. An issue that adds a technique removes its entry here (tests/realtime/test_techniques.py
+#: checks that every other choice has a module).
+NOT_IMPLEMENTED = frozenset({("diffuse", "lights"), ("diffuse", "prt"), ("glossy", "lights"),
+                             ("occlusion", "shadow_maps"), ("occlusion", "prt"), ("occlusion", "vct"),
+                             ("interreflection", "prt"), ("interreflection", "vct"),
+                             ("parameterization", "dual_paraboloid"), ("parameterization", "sphere_map")})
+
+
+def table_users(rt: Realtime) -> dict[str, str | None]:
+    """For each technique table, the `realtime.KEY = "VALUE"` choice that uses it (None: unused)."""
+    def first(*pairs: tuple[str, str]) -> str | None:
+        return next((f'realtime.{k} = "{v}"' for k, v in pairs if getattr(rt, k) == v), None)
+
+    return {"prefiltered": first(("glossy", "prefiltered")),
+            "irradiance_map": first(("diffuse", "irradiance_map")),
+            "lights": first(("diffuse", "lights"), ("glossy", "lights")),
+            "prt": first(("diffuse", "prt"), ("occlusion", "prt"), ("interreflection", "prt")),
+            "vct": first(("occlusion", "vct"), ("interreflection", "vct"))}
+
+
+def _realtime(raw: Any, where: str, section) -> Realtime:
+    """[realtime] and its technique tables: values, then the tables' use, then combinations."""
+    if not isinstance(raw, dict):
+        raise SceneError(f"{where}: realtime must be a table, got {raw!r}")
+    flat = {k: v for k, v in raw.items() if k not in TECHNIQUE_TABLES}
+    tables = {}
+    for name, cls in TECHNIQUE_TABLES.items():
+        if name in raw:
+            tables[name] = cls(**section(f"realtime.{name}", raw[name]))
+    rt = Realtime(**section("realtime", flat), **tables)
+    fs = rt.face_size
+    if fs != "auto" and fs > rt.base_size:
+        raise SceneError(f"{where}: realtime.face_size = {fs!r}: must be at most realtime.base_size = {rt.base_size}")
+    users = table_users(rt)
+    for name in tables:  # pbrt's ReportUnused: a table nobody reads is a mistake, not a no-op
+        if users[name] is None:
+            raise SceneError(f"{where}: realtime.{name}: this table is not used by the chosen techniques; "
+                             f"it applies to {_table_hint(name)}")
+    _check_combinations(rt, flat, where)
+    for key in ("diffuse", "glossy", "occlusion", "interreflection", "parameterization"):
+        if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
+            raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
+    m = rt.irradiance_map
+    if m.source_size > rt.base_size:
+        raise SceneError(f"{where}: realtime.irradiance_map.source_size = {m.source_size}: must be at most "
+                         f"realtime.base_size = {rt.base_size}")
+    return rt
+
+
+def _table_hint(name: str) -> str:
+    return {"prefiltered": 'realtime.glossy = "prefiltered"', "irradiance_map": 'realtime.diffuse = "irradiance_map"',
+            "lights": 'realtime.diffuse or realtime.glossy = "lights"',
+            "prt": 'realtime.diffuse, occlusion or interreflection = "prt"',
+            "vct": 'realtime.occlusion or interreflection = "vct"'}[name]
+
+
+def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
+    """Combinations that make no sense are errors naming both keys (design.md section 9)."""
+    def bad(key_a: str, key_b: str, why: str) -> SceneError:
+        return SceneError(f"{where}: realtime.{key_a} = {getattr(rt, key_a)!r} with realtime.{key_b} = "
+                          f"{getattr(rt, key_b)!r}: {why}")
+
+    if rt.occlusion == "shadow_maps" and "lights" not in (rt.diffuse, rt.glossy):
+        raise bad("occlusion", "diffuse", 'shadow maps are cast by the light array: set realtime.diffuse or '
+                  'realtime.glossy = "lights"')
+    if rt.occlusion == "prt" and rt.diffuse != "prt":
+        raise bad("occlusion", "diffuse", 'precomputed visibility lives in the transfer: set realtime.diffuse = "prt"')
+    if rt.interreflection == "prt" and (rt.diffuse != "prt" or rt.occlusion != "prt"):
+        raise bad("interreflection", "occlusion", "interreflected transfer includes its shadowing: set "
+                  'realtime.diffuse = "prt" and realtime.occlusion = "prt"')
+    # the paper's knobs of one technique, set explicitly while another technique is chosen
+    if "sh_order" in given and rt.sh_order != 2 and rt.diffuse != "sh":
+        raise bad("sh_order", "diffuse", 'the SH order applies to realtime.diffuse = "sh" only')
+    if "sh_window" in given and rt.sh_window != "none" and rt.diffuse != "sh":
+        raise bad("sh_window", "diffuse", 'SH windows apply to realtime.diffuse = "sh" only')
+    for key in ("lod_bias", "lod_mapping"):
+        if key in given and rt.glossy != "box" and getattr(rt, key) != getattr(Realtime, key):
+            raise bad(key, "glossy", 'the paper\'s LOD rule applies to realtime.glossy = "box" only '
+                      "(the prefiltered chain has [realtime.prefiltered] bias)")
 
 
 # --------------------------------------------------------------------------- overrides

@@ -2,6 +2,7 @@
 // SH9 projection, pass 1: every texel of the selected level adds L(w) Y_lm(w) dOmega(w). Each
 // invocation sums a block of block x block texels in registers, then the 8x8 workgroup reduces in
 // shared memory and writes 9 RGB partial sums (fewer barrier phases: they are costly on llvmpipe).
+// The basis constants SH_C0..SH_C4 are #defined by the host from scenes/shbasis.py.
 // dOmega comes from a texture of exact texel solid angles (computed in float64 by numpy: the
 // atan2 corner formula loses precision in float32 on fine faces).
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;  // 64 x 9 x vec3 fits 32 KiB shared
@@ -28,15 +29,15 @@ void main() {
             vec3 d = normalize(face_direction(t.z, sc, tc));
             vec3 L = imageLoad(level, t).rgb * texelFetch(solid_angle, t.xy, 0).r;
             float x = d.x, y = d.y, z = d.z;
-            c[0] += L * 0.282095;
-            c[1] += L * (0.488603 * y);
-            c[2] += L * (0.488603 * z);
-            c[3] += L * (0.488603 * x);
-            c[4] += L * (1.092548 * x * y);
-            c[5] += L * (1.092548 * y * z);
-            c[6] += L * (0.315392 * (3.0 * z * z - 1.0));
-            c[7] += L * (1.092548 * x * z);
-            c[8] += L * (0.546274 * (x * x - y * y));
+            c[0] += L * SH_C0;
+            c[1] += L * (SH_C1 * y);
+            c[2] += L * (SH_C1 * z);
+            c[3] += L * (SH_C1 * x);
+            c[4] += L * (SH_C2 * x * y);
+            c[5] += L * (SH_C2 * y * z);
+            c[6] += L * (SH_C3 * (3.0 * z * z - 1.0));
+            c[7] += L * (SH_C2 * x * z);
+            c[8] += L * (SH_C4 * (x * x - y * y));
         }
     }
     for (int k = 0; k < 9; ++k) acc[lid][k] = c[k];

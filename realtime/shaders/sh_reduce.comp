@@ -1,6 +1,6 @@
 #version 430
 // SH9 projection, pass 2: sum the workgroup partials into the 9 RGB coefficients and build the
-// paper's irradiance matrices M (eq. 12, c5 = 0.247708), one 4x4 per colour channel.
+// paper's irradiance matrices M (eq. 12), one 4x4 per colour channel.
 layout(local_size_x = 64, local_size_y = 1, local_size_z = 1) in;
 layout(std430, binding = 1) readonly buffer Partials { vec4 partial[]; };
 layout(std430, binding = 2) writeonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
@@ -29,7 +29,8 @@ void main() {
         L[k] = acc[0][k] * window[band];
         coeffs[k] = vec4(L[k], 0.0);
     }
-    const float c1 = 0.429043, c2 = 0.511664, c3 = 0.743125, c4 = 0.886227, c5 = 0.247708;
+    // c1..c5 of eq. 12 (c5 = c3 / 3, not the paper's misprint), #defined by the host from realtime/sh.py
+    const float c1 = SH_M1, c2 = SH_M2, c3 = SH_M3, c4 = SH_M4, c5 = SH_M5;
     for (int ch = 0; ch < 3; ++ch) {
         float L00 = L[0][ch], L1m1 = L[1][ch], L10 = L[2][ch], L11 = L[3][ch];
         float L2m2 = L[4][ch], L2m1 = L[5][ch], L20 = L[6][ch], L21 = L[7][ch], L22 = L[8][ch];

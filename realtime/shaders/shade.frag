@@ -1,23 +1,26 @@
 #version 430
-// The paper's per-pixel shading (design.md section 3). Compiled with only the effects the
-// scene needs: HAS_DIFFUSE, HAS_GLOSSY, HAS_FRESNEL are #defined by the host.
+// The shading pass: the paper's reflectance (design.md section 3) with the diffuse irradiance and
+// the glossy radiance of the scene's techniques (design.md section 9). The host #defines the
+// scene's effects (HAS_DIFFUSE, HAS_GLOSSY, HAS_FRESNEL), one DIFFUSE_* and one GLOSSY_* technique
+// (each included file below compiles only under its own define) and the MATERIAL_* codes of
+// scenes/materials.py.
 in vec3 v_position;
 in vec3 v_normal;
 uniform vec3 camera_position;
-uniform int material_type;  // 0 diffuse, 1 phong, 2 blend
+uniform int material_type;  // MATERIAL_DIFFUSE, MATERIAL_PHONG, MATERIAL_BLEND
 uniform vec3 kd;
 uniform vec3 ks;
-uniform float exponent;
 uniform float f0;
-uniform samplerCube env_cube;
-uniform float level_lod;    // mip level of the selected face size s: log2(base / s)
-uniform float lod_bias;
-uniform float face_size;
-uniform float max_lod;
-uniform int lod_mapping;    // 0 paper (bias only), 1 McGuire et al. 2013
-layout(std430, binding = 2) readonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
 out vec4 frag;
 const float PI = 3.14159265358979323846;
+
+// vec3 diffuse_irradiance(vec3 n): E(n), the cosine-weighted integral of the environment
+#include "diffuse_sh9.glsl"
+#include "diffuse_sh_n.glsl"
+#include "diffuse_irradiance_map.glsl"
+// vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
+#include "glossy_box.glsl"
+#include "glossy_prefiltered.glsl"
 
 void main() {
     vec3 n = v_normal;
@@ -28,22 +31,14 @@ void main() {
     vec3 Ld = vec3(0.0);
     vec3 Lg = vec3(0.0);
 #ifdef HAS_DIFFUSE
-    // E(n) = n^T M n per channel (Ramamoorthi & Hanrahan 2001, eq. 12); never negative
-    vec4 n4 = vec4(n, 1.0);
-    vec3 E = vec3(dot(n4, M[0] * n4), dot(n4, M[1] * n4), dot(n4, M[2] * n4));
-    Ld = kd / PI * max(E, vec3(0.0));
+    Ld = kd / PI * max(diffuse_irradiance(n), vec3(0.0));
 #endif
 #ifdef HAS_GLOSSY
-    vec3 r = reflect(-v, n);
-    float offset = 0.0;
-    if (lod_mapping == 1)  // a cosine-power lobe of exponent N covers 2 pi / (N + 1) sr
-        offset = max(0.0, log2(face_size * sqrt(3.0)) - 0.5 * log2(exponent + 1.0));
-    float lod = clamp(level_lod + offset + lod_bias, 0.0, max_lod);
-    Lg = ks * textureLod(env_cube, r, lod).rgb;
+    Lg = ks * glossy_radiance(reflect(-v, n));
 #endif
-    vec3 color = material_type == 0 ? Ld : Lg;
+    vec3 color = material_type == MATERIAL_DIFFUSE ? Ld : Lg;
 #ifdef HAS_FRESNEL
-    if (material_type == 2) {
+    if (material_type == MATERIAL_BLEND) {
         float F = f0 + (1.0 - f0) * pow(1.0 - n_dot_v, 5.0);  // Schlick, eq. 15
         color = (1.0 - F) * Ld + F * Lg;  // eq. 7
     }

@@ -1,0 +1,8 @@
+#ifdef DIFFUSE_IRRADIANCE_MAP
+// The exact cosine convolution of the environment, stored by normal (realtime/irradiance_map.py).
+uniform samplerCube irradiance_cube;
+
+vec3 diffuse_irradiance(vec3 n) {
+    return textureLod(irradiance_cube, n, 0.0).rgb;
+}
+#endif

@@ -1,0 +1,157 @@
+"""The technique interface (design.md section 9): one small life cycle per real-time technique.
+
+A technique simulates one effect of a scene (`diffuse`, `glossy`, later `occlusion`, ...) and is
+chosen by a `[realtime]` key (`realtime.diffuse = "sh"`, `realtime.glossy = "prefiltered"`, ...):
+
+    prepare(frame)      once per scene: precomputation, timed apart as `precompute`
+    update(frame)       every frame: timed under the technique's own `timing_key`
+    defines()           the #defines it adds to the shading pass (shade.frag includes its GLSL)
+    bind(prog)          per frame, before the objects are drawn: textures, buffers, uniforms
+    bind_object(prog, obj)   per object (e.g. the glossy LOD of that object's exponent)
+    meta()              what it reports in Render.meta["techniques"]
+    release()
+
+`realtime.frame.render` composes a frame from the techniques `choose(scene)` returns: only those for
+the scene's effects are prepared, updated and compiled in (design.md section 4). The environment's
+cube map and its 2x2 box chain (realtime.gpu.EnvironmentFilter) are shared by every technique;
+each says how much of the chain it reads (`chain_level`), so the paper's diffuse-only frame still
+stops the chain at the selected level.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from importlib import import_module
+from typing import Any, ClassVar
+
+import moderngl
+
+#: (effect key, value) -> "module:Class" of the technique (imported on use)
+REGISTRY: dict[tuple[str, str], str] = {
+    ("diffuse", "sh"): "realtime.diffuse_sh:ShDiffuse",
+    ("diffuse", "irradiance_map"): "realtime.diffuse_irradiance_map:IrradianceMapDiffuse",
+    ("glossy", "box"): "realtime.glossy_box:BoxGlossy",
+    ("glossy", "prefiltered"): "realtime.glossy_prefiltered:PrefilteredGlossy",
+}
+#: the scene keys that choose a technique, in the order frames run them
+EFFECT_KEYS = ("diffuse", "glossy", "occlusion", "interreflection")
+#: `none` choices: the effect is ignored (the paper ignores occlusion and interreflection)
+NOTHING = "none"
+
+
+@dataclass
+class Frame:
+    """What every technique sees: the scene, the GL context, the shared environment filter, the
+    selected mip level, and (in update) the environment's rotation of this frame."""
+
+    ctx: moderngl.Context
+    scene: Any
+    env_filter: Any  # realtime.gpu.EnvironmentFilter
+    face_size: int
+    level: int
+    rotation_deg: float = 0.0
+
+
+class Technique:
+    """Base class: a technique that needs nothing per frame (override what applies)."""
+
+    effect: ClassVar[str]  # the scene key that chooses it: "diffuse", "glossy", ...
+    name: ClassVar[str]  # its value of that key: "sh", "box", ...
+    simulates: ClassVar[frozenset[str]]  # the scene effects it simulates
+    timing_key: ClassVar[str] = "filter"  # its per-frame key in Render.timings
+    #: the scene keys only this technique reads ("realtime.table." covers a whole table): a sweep
+    #: varies them only where the technique runs (experiments/sweep.py)
+    reads: ClassVar[tuple[str, ...]] = ()
+    #: of those, the axes worth sweeping, with values that show the trade-off (sweep --technique-axes)
+    axes: ClassVar[dict[str, tuple]] = {}
+
+    def __init__(self, frame: Frame) -> None:
+        self.frame = frame
+
+    def chain_level(self, frame: Frame) -> int | None:
+        """The coarsest level of the environment's box chain it reads (None: the whole chain)."""
+        return frame.level
+
+    def prepare(self, frame: Frame) -> None:  # noqa: B027 (optional hook)
+        """Once per scene, before the first frame (timed as `precompute`)."""
+
+    def update(self, frame: Frame) -> None:  # noqa: B027 (optional hook)
+        """Every frame, after the environment's cube map and chain are rebuilt."""
+
+    def defines(self) -> tuple[str, ...]:
+        return ()
+
+    def bind(self, prog: moderngl.Program) -> None:  # noqa: B027 (optional hook)
+        """Per frame, before the objects are drawn."""
+
+    def bind_object(self, prog: moderngl.Program, obj) -> None:  # noqa: B027 (optional hook)
+        """Per object, before it is drawn."""
+
+    def meta(self) -> dict:
+        return {}
+
+    def release(self) -> None:  # noqa: B027 (optional hook)
+        pass
+
+
+def technique_class(effect: str, value: str) -> type[Technique]:
+    module, _, cls = REGISTRY[(effect, value)].partition(":")
+    return getattr(import_module(module), cls)
+
+
+def owner_of(key: str) -> tuple[str, str] | None:
+    """The (effect key, value) of the technique that alone reads scene `key`, or None."""
+    for pair in REGISTRY:
+        for k in technique_class(*pair).reads:
+            if key == k or (k.endswith(".") and key.startswith(k)):
+                return pair
+    return None
+
+
+def chosen(scene) -> dict[str, str]:
+    """{effect key: chosen value} for the scene's [realtime] technique keys."""
+    rt = scene.realtime
+    return {key: getattr(rt, key) for key in EFFECT_KEYS}
+
+
+def needed(scene) -> list[tuple[str, str]]:
+    """The (effect key, value) pairs this scene runs: a technique only for an effect the scene has."""
+    effects = scene.effects
+    return [(key, value) for key, value in chosen(scene).items() if value != NOTHING and key in effects]
+
+
+def choose(scene, frame: Frame) -> list[Technique]:
+    """The techniques of a scene, constructed (not yet prepared)."""
+    return [technique_class(key, value)(frame) for key, value in needed(scene)]
+
+
+def simulated_effects(scene) -> frozenset[str]:
+    """The effects the scene's chosen techniques simulate (Fresnel is the shading pass's own)."""
+    out = {"fresnel"}
+    for key, value in needed(scene):
+        out |= technique_class(key, value).simulates
+    return frozenset(out)
+
+
+def unsimulated_effects(scene) -> list[str]:
+    """Effects the scene calls for that its techniques do not simulate (design.md section 9): a low
+    PSNR there is a missing effect, not a bug."""
+    return sorted(scene.effects - simulated_effects(scene))
+
+
+def describe(scene) -> dict[str, Any]:
+    """The techniques and their parameters as a plain dict (render meta, result rows)."""
+    rt = scene.realtime
+    out: dict[str, Any] = {"parameterization": rt.parameterization, "face_size": rt.face_size,
+                           "base_size": rt.base_size}
+    for key, value in chosen(scene).items():
+        out[key] = value
+    if rt.diffuse == "sh":
+        out["sh_order"], out["sh_window"] = rt.sh_order, rt.sh_window
+    if rt.diffuse == "irradiance_map":
+        out["irradiance_map"] = vars(rt.irradiance_map).copy()
+    if rt.glossy == "box":
+        out["lod_bias"], out["lod_mapping"] = rt.lod_bias, rt.lod_mapping
+    if rt.glossy == "prefiltered":
+        out["prefiltered"] = vars(rt.prefiltered).copy()
+    return out

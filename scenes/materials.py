@@ -1,0 +1,65 @@
+"""The material types of the paper's model (design.md section 3, step 7): one table, read everywhere.
+
+Each type is the same reflectance with a fixed Fresnel weight F between a diffuse lobe kd/pi cos and
+the normalised Phong lobe ks (N + 1)/(2 pi) max(r.l, 0)^N:
+
+    type      F              scene keys                    lobes
+    diffuse   0              kd                            diffuse
+    phong     1              ks, exponent                  glossy
+    blend     Schlick(f0)    kd, ks, exponent, f0          diffuse + glossy, (1 - F) / F
+
+This table drives scene validation (which keys a type accepts, the defaults of the others), the
+reference cache key (only the fields a type uses: an unused kd must not split the cache), the
+Mitsuba plugin and the shader (`code`, the same integer on both sides), and the quadrature's lobe
+weights. A new field forgotten here is forgotten everywhere at once, not in one of seven places.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+BLACK = (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class MaterialType:
+    name: str
+    code: int  # `material_type` in shade.frag and `material` in the iblcheck_paper plugin
+    fields: tuple[str, ...]  # the Material fields this type uses (and the scene keys it accepts, with "type")
+    fresnel: str  # "zero" (F = 0), "one" (F = 1) or "schlick" (F = f0 + (1 - f0)(1 - n.v)^5)
+    defaults: tuple[tuple[str, object], ...] = ()  # values of the fields it does not use
+
+    @property
+    def diffuse_lobe(self) -> bool:
+        return self.fresnel != "one"
+
+    @property
+    def glossy_lobe(self) -> bool:
+        return self.fresnel != "zero"
+
+    @property
+    def scene_keys(self) -> frozenset[str]:
+        return frozenset(("type", *self.fields))
+
+
+TYPES: dict[str, MaterialType] = {t.name: t for t in (
+    MaterialType("diffuse", 0, ("kd",), "zero", (("ks", BLACK),)),
+    MaterialType("phong", 1, ("ks", "exponent"), "one", (("kd", BLACK),)),
+    MaterialType("blend", 2, ("kd", "ks", "exponent", "f0"), "schlick"),
+)}
+NAMES = tuple(TYPES)
+
+
+def of(material) -> MaterialType:
+    """The table row of a scenes.Material."""
+    return TYPES[material.type]
+
+
+def used_fields(material) -> dict:
+    """{"type": ..., field: value} for the fields the material's type uses (cache keys, result rows)."""
+    return {"type": material.type, **{k: getattr(material, k) for k in of(material).fields}}
+
+
+def glsl_defines() -> tuple[str, ...]:
+    """`MATERIAL_<NAME> <code>` for the shader's `material_type` comparisons."""
+    return tuple(f"MATERIAL_{t.name.upper()} {t.code}" for t in TYPES.values())

@@ -1,0 +1,94 @@
+"""The technique interface (design.md section 9, issue 10): scene keys, refusals, composition."""
+
+from __future__ import annotations
+
+import pytest
+
+import scenes
+from realtime import technique
+from scenes import SceneError
+from scenes.scene import NOT_IMPLEMENTED, SCHEMA
+
+CHOICE_KEYS = ("diffuse", "glossy", "occlusion", "interreflection", "parameterization")
+
+
+def choices(key: str) -> list[str]:
+    text = SCHEMA["realtime"][key][1]
+    return [c.strip().strip('"') for c in text.removeprefix("one of ").split(",")]
+
+
+@pytest.mark.parametrize("key", CHOICE_KEYS)
+def test_every_choice_is_a_technique_or_refused_as_not_implemented(key):
+    for value in choices(key):
+        implemented = (key, value) in technique.REGISTRY or value in ("none", "cube")
+        assert implemented != ((key, value) in NOT_IMPLEMENTED), (key, value)
+        if implemented and (key, value) in technique.REGISTRY:
+            cls = technique.technique_class(key, value)
+            assert cls.effect == key and cls.name == value and key in cls.simulates
+
+
+@pytest.mark.parametrize(("key", "value"), sorted(NOT_IMPLEMENTED))
+def test_not_implemented_values_are_refused_not_ignored(key, value):
+    # the combination rules come first for some (shadow maps need the light array): make them hold
+    extra = {"realtime.diffuse": "lights"} if value == "shadow_maps" else {}
+    if value == "prt" and key in ("occlusion", "interreflection"):
+        extra = {"realtime.diffuse": "prt", "realtime.occlusion": "prt"}
+    with pytest.raises(SceneError) as err:
+        scenes.load("builtin:sphere-blend").with_overrides({f"realtime.{key}": value, **extra})
+    assert "not implemented yet" in str(err.value)
+    assert "realtime." in str(err.value)
+
+
+@pytest.mark.parametrize(("overrides", "names"), [
+    ({"realtime.prefiltered.samples": 64}, ["realtime.prefiltered", 'realtime.glossy = "prefiltered"']),
+    ({"realtime.irradiance_map.size": 16}, ["realtime.irradiance_map", 'realtime.diffuse = "irradiance_map"']),
+    ({"realtime.glossy": "prefiltered", "realtime.prefiltered.count": 3}, ["realtime.prefiltered.count",
+                                                                          "unknown key"]),
+    ({"realtime.occlusion": "shadow_maps"}, ["realtime.occlusion", "realtime.diffuse"]),
+    ({"realtime.diffuse": "irradiance_map", "realtime.sh_order": 4}, ["realtime.sh_order", "realtime.diffuse"]),
+    ({"realtime.diffuse": "irradiance_map", "realtime.sh_window": "auto"}, ["realtime.sh_window",
+                                                                             "realtime.diffuse"]),
+    ({"realtime.glossy": "prefiltered", "realtime.lod_bias": 1.0}, ["realtime.lod_bias", "realtime.glossy"]),
+    ({"realtime.glossy": "prefiltered", "realtime.lod_mapping": "mcguire"}, ["realtime.lod_mapping",
+                                                                               "realtime.glossy"]),
+    ({"realtime.diffuse": "irradiance_map", "realtime.base_size": 64, "realtime.face_size": 16,
+      "realtime.irradiance_map.source_size": 128},
+     ["realtime.irradiance_map.source_size", "realtime.base_size"]),
+])
+def test_unused_tables_and_nonsense_combinations_name_both_keys(overrides, names):
+    with pytest.raises(SceneError) as err:
+        scenes.load("builtin:sphere-blend").with_overrides(overrides)
+    for name in names:
+        assert name in str(err.value)
+
+
+def test_a_used_table_is_read():
+    s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.glossy": "prefiltered",
+                                                             "realtime.prefiltered.samples": 64})
+    assert s.realtime.prefiltered.samples == 64
+    assert technique.describe(s)["prefiltered"]["samples"] == 64
+
+
+@pytest.mark.parametrize(("spec", "missing"), [
+    ("builtin:sphere-diffuse", []), ("builtin:sphere-phong", []), ("builtin:sphere-blend", []),
+    ("builtin:teapot-blend", ["interreflection", "occlusion"]), ("builtin:bowl-diffuse", ["interreflection",
+                                                                                          "occlusion"]),
+    ("builtin:torus-phong", ["interreflection", "occlusion"])])
+def test_unsimulated_effects(spec, missing):
+    assert technique.unsimulated_effects(scenes.load(spec)) == missing
+
+
+def test_only_the_scenes_effects_get_techniques():
+    # a diffuse technique chosen for a scene without diffuse is not run (design.md section 4)
+    s = scenes.load("builtin:sphere-phong").with_overrides({"realtime.diffuse": "irradiance_map"})
+    assert technique.needed(s) == [("glossy", "box")]
+    s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.glossy": "prefiltered"})
+    assert technique.needed(s) == [("diffuse", "sh"), ("glossy", "prefiltered")]
+
+
+def test_owner_of_technique_keys():
+    assert technique.owner_of("realtime.lod_bias") == ("glossy", "box")
+    assert technique.owner_of("realtime.sh_order") == ("diffuse", "sh")
+    assert technique.owner_of("realtime.prefiltered.samples") == ("glossy", "prefiltered")
+    assert technique.owner_of("realtime.irradiance_map.size") == ("diffuse", "irradiance_map")
+    assert technique.owner_of("realtime.face_size") is None
