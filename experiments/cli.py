@@ -12,48 +12,15 @@ import warnings
 
 from scenes import InputError, MissingCapability
 
+from .inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
+
 EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING = 0, 1, 2, 3
-
-
-class UsageError(InputError):
-    """Bad command-line usage (exit 2)."""
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's own errors: one line, exit 2
         print(f"error: {message}", file=sys.stderr)
         raise SystemExit(EXIT_BAD_INPUT)
-
-
-def parse_sets(items: list[str] | None) -> dict[str, str]:
-    """`--set K=V` pairs -> {K: V}; values are parsed as TOML literals by Scene.with_overrides."""
-    out = {}
-    for item in items or []:
-        key, sep, value = item.partition("=")
-        if not sep or not key:
-            raise UsageError(f"--set {item!r}: expected KEY=VALUE, e.g. --set realtime.lod_bias=2")
-        out[key.strip()] = value.strip()
-    return out
-
-
-def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
-    import scenes
-
-    scene = scenes.load(spec)
-    overrides = parse_sets(sets)
-    if sanitize:
-        overrides["environment.sanitize"] = True
-    return scene.with_overrides(overrides) if overrides else scene
-
-
-def parse_list(text: str | None, kind: type, flag: str) -> list | None:
-    """'8,16,32' -> [8, 16, 32]; None stays None."""
-    if text is None:
-        return None
-    try:
-        return [kind(x.strip()) for x in text.split(",") if x.strip()]
-    except ValueError:
-        raise UsageError(f"{flag} {text!r}: expected a comma-separated list of {kind.__name__} values") from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -83,6 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--f0s", help="comma-separated f0 values (blend scenes only)")
     s.add_argument("--envs", help="comma-separated environments (builtin:NAME or files)")
     s.add_argument("--lod-mappings", help="comma-separated: paper, mcguire (glossy scenes only)")
+    s.add_argument("--axis", action="append", metavar="KEY=V1,V2", default=[],
+                   help="sweep any scene key, e.g. --axis realtime.glossy=box,prefiltered (repeatable); a "
+                        "technique's own keys vary only where that technique runs")
     s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
     s.add_argument("--out", default="reports/sweep")
     s.set_defaults(func=_cmd_sweep)
@@ -136,7 +106,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                       lod_biases=parse_list(args.lod_biases, float, "--lod-biases"),
                       exponents=parse_list(args.exponents, float, "--exponents"),
                       f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
-                      lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"))
+                      lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),
+                      extra=[parse_axis(a) for a in args.axis])
     rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set))
     print(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}")
     return EXIT_OK
@@ -176,9 +147,29 @@ def _cmd_paper(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+#: options whose value is a list that may start with a minus sign (`--lod-biases -1,0,1`)
+LIST_OPTIONS = ("--face-sizes", "--lod-biases", "--exponents", "--f0s", "--envs", "--lod-mappings", "--axis",
+                "--set", "--min-psnr", "--min-ssim", "--max-flip")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """argparse takes `-1,0,1` for an option; glue such a value to its option (`--lod-biases=-1,0,1`)."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a in LIST_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-") and len(argv[i + 1]) > 1 \
+                and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
     warnings.simplefilter("default")
     warnings.showwarning = lambda msg, cat, *a, **k: print(f"warning: {msg}", file=sys.stderr)
     try:

@@ -35,8 +35,14 @@ def second_reference(reference: Render, scene) -> Render | None:
 def compare(test: Render, reference: Render, scene, reference2: Render | None = None) -> dict:
     """Metrics of `test` against `reference` for `scene` (see the module docstring).
 
-    Keys: scene, psnr, ssim, flip, rel_mse, noise_floor_psnr, at_noise_floor, realtime_ms
-    (filter, draw, total), reference_s, reference_spp, pixels. A metric with no pixels is None.
+    Keys: scene, psnr, psnr_unbiased (with psnr_unbiased_clamped), ssim, flip, rel_mse,
+    noise_floor_psnr, at_noise_floor, realtime_ms (filter, draw, total and every other per-frame
+    key of the techniques, plus precompute), reference_s, reference_spp, pixels,
+    unsimulated_effects. A metric with no pixels is None.
+
+    psnr_unbiased subtracts the reference's own noise variance (half the mean squared difference of
+    its two seeds) from the MSE (metrics.psnr_unbiased): what a noise-free reference would score.
+    With a noise-free reference (the quadrature) it equals psnr.
     """
     mask = metrics.common_mask(test.mask, reference.mask)
     a, b = metrics.display(scene, test.rgb), metrics.display(scene, reference.rgb)
@@ -44,24 +50,38 @@ def compare(test: Render, reference: Render, scene, reference2: Render | None = 
         reference2 = second_reference(reference, scene)
     if reference2 is None:
         floor = metrics.PSNR_CAP if mask.any() else None
+        unbiased = metrics.psnr_unbiased(a, b, b, mask)
     else:
-        floor = metrics.noise_floor_psnr(b, metrics.display(scene, reference2.rgb), mask & reference2.mask)
+        b2 = metrics.display(scene, reference2.rgb)
+        floor = metrics.noise_floor_psnr(b, b2, mask & reference2.mask)
+        unbiased = metrics.psnr_unbiased(a, b, b2, mask & reference2.mask)
     psnr = metrics.psnr(a, b, mask)
     out = {
         "scene": scene.name,
         "psnr": psnr,
+        "psnr_unbiased": unbiased.value,
+        "psnr_unbiased_clamped": unbiased.clamped,
         "ssim": metrics.ssim(a, b, mask),
         "flip": metrics.flip(a, b, mask),
         "rel_mse": metrics.rel_mse(test.rgb, reference.rgb, mask),
         "noise_floor_psnr": floor,
         "at_noise_floor": None if psnr is None or floor is None else bool(psnr >= floor - AT_FLOOR_DB),
-        "realtime_ms": {k: test.timings.get(k) for k in ("filter", "draw", "total")},
+        "realtime_ms": realtime_ms(test.timings),
         "reference_s": (reference.timings.get("render") or 0.0) / 1e3,
         "reference_spp": reference.meta.get("spp"),
         "reference_cache": reference.meta.get("cache"),
         "pixels": int(mask.sum()),
+        "unsimulated_effects": list(test.meta.get("unsimulated_effects", [])),
     }
     return out
+
+
+def realtime_ms(timings: dict) -> dict:
+    """The medians of a real-time render's timings: filter, draw, total, the techniques' own
+    per-frame keys and precompute (p90 values and the background are left out)."""
+    keys = ["filter", "draw", "total"]
+    keys += sorted(k for k in timings if not k.endswith("_p90") and k not in keys and k != "background")
+    return {k: timings.get(k) for k in keys}
 
 
 @dataclass
@@ -86,7 +106,8 @@ def run(scene, reference: Render | None = None) -> Comparison:
 
 def format_table(rows: list[dict]) -> str:
     """A plain-text table of comparison rows for humans."""
-    cols = [("scene", "scene", "{}"), ("PSNR dB", "psnr", "{:.2f}"), ("floor dB", "noise_floor_psnr", "{:.2f}"),
+    cols = [("scene", "scene", "{}"), ("PSNR dB", "psnr", "{:.2f}"), ("unbiased dB", "psnr_unbiased", "{:.2f}"),
+            ("floor dB", "noise_floor_psnr", "{:.2f}"),
             ("SSIM", "ssim", "{:.4f}"), ("FLIP", "flip", "{:.4f}"), ("relMSE", "rel_mse", "{:.3g}"),
             ("filter ms", ("realtime_ms", "filter"), "{:.2f}"), ("draw ms", ("realtime_ms", "draw"), "{:.2f}"),
             ("ref s", "reference_s", "{:.1f}"), ("spp", "reference_spp", "{}"), ("pixels", "pixels", "{}")]

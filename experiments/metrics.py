@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from functools import lru_cache
+from typing import NamedTuple
 
 import numpy as np
 
@@ -118,3 +119,85 @@ def noise_floor_psnr(display_a: np.ndarray, display_b: np.ndarray, mask: np.ndar
     """
     p = psnr(display_a, display_b, mask)
     return None if p is None else min(PSNR_CAP, p + TWO_RENDERS_DB)
+
+
+#: `psnr_unbiased`'s default floor: an excess error is resolved when it is this many standard errors above zero
+UNBIASED_FLOOR_SE = 2.0
+
+
+class UnbiasedPSNR(NamedTuple):
+    """Result of `psnr_unbiased`: unpacks as `value, clamped = psnr_unbiased(...)` (JSON: a 2-list)."""
+
+    value: float | None
+    clamped: bool
+
+
+def psnr_unbiased(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray, mask: np.ndarray,
+                  data_range: float = 1.0, floor_se: float = UNBIASED_FLOOR_SE) -> UnbiasedPSNR:
+    """PSNR of `test` against the noise-free truth, estimated from two noisy references.
+
+    A Monte Carlo reference is the truth plus zero-mean noise, so the plain MSE against it is the
+    test's own error plus the reference's noise variance, and `psnr` is biased low. This removes
+    the reference's variance, estimated from a second, independent render.
+
+    Parameters
+    ----------
+    test : ndarray, shape (H, W, 3)
+        The image under test, display values (`display(scene, rgb)`).
+    reference : ndarray, shape (H, W, 3)
+        The reference render, display values with the same tone mapping.
+    reference2 : ndarray, shape (H, W, 3)
+        A render of the same reference with another seed (independent noise), display values.
+    mask : ndarray of bool, shape (H, W)
+        Pixels that count; pass the common mask of all three images.
+    data_range : float, optional
+        The data range of the images (1 for display values).
+    floor_se : float, optional
+        The floor, in standard errors of the estimate (see Notes). Default `UNBIASED_FLOOR_SE` = 2.
+
+    Returns
+    -------
+    UnbiasedPSNR
+        ``value``: ``10 log10(data_range**2 / max(MSE_u, floor))``, at most `PSNR_CAP`; None for an
+        empty mask. ``clamped``: True when ``MSE_u <= floor``, i.e. the test image is as close to the
+        truth as this reference can tell, and ``value`` is that resolution limit, not a measurement.
+
+    Notes
+    -----
+    Over the N masked pixels (all channels), with the test image t and the references r, r2::
+
+        MSE   = mean((t - r)^2)                    E[MSE] = MSE(t, truth) + var
+        var   = mean((r - r2)^2) / 2               E[var] = var (r, r2 independent, same variance)
+        MSE_u = MSE - var = mean(d),  d_p = mean over channels of (t - r)^2 - (r - r2)^2 / 2
+
+    so ``MSE_u`` is an unbiased estimate of ``MSE(t, truth)``. It is itself noisy: its standard error
+    is ``se = std(d_p) / sqrt(N)`` over the pixels (the pixel is the sampling unit: the channels of
+    one pixel share paths and are correlated, different pixels are independent with the box
+    reconstruction filter of the references). An ``MSE_u`` within ``floor_se`` standard errors of zero
+    cannot be told from zero (at ``floor_se = 2``, one-sided 97.7 %), so the floor is
+    ``floor = max(floor_se * se, data_range**2 * 10**(-PSNR_CAP / 10))``. The floor is the noise-limited
+    resolution of this reference and pixel count; for Gaussian noise of variance s^2 and a test
+    equal to the truth, ``se = s^2 sqrt(2 / (3 N))``. The result is continuous in ``MSE_u``: the
+    value never exceeds the floor's PSNR. With a noise-free reference (r2 == r) ``var = 0`` and the
+    result is `psnr` up to that floor.
+
+    The estimate of the log of a ratio is slightly biased (Jensen); for a resolved error (``MSE_u``
+    well above ``se``) that bias is ``~ -(10 / ln 10) (se / MSE_u)^2 / 2`` dB, negligible.
+
+    References
+    ----------
+    .. [1] For independent X, Y of equal variance, E[(X - Y)^2] / 2 = Var X. In rendering: Rousselle,
+       Knaus and Zwicker, "Adaptive rendering with non-local means filtering", ACM TOG 31(6), 2012
+       (SIGGRAPH Asia), section 4: the variance of a render from two half-buffers of independent samples.
+    .. [2] Efron and Tibshirani, "An Introduction to the Bootstrap", 1993, ch. 2 (standard error
+       of a mean).
+    """
+    if not mask.any():
+        return UnbiasedPSNR(None, False)
+    t, r, r2 = (np.asarray(x, np.float64)[mask] for x in (test, reference, reference2))
+    d = ((t - r) ** 2 - 0.5 * (r - r2) ** 2).reshape(t.shape[0], -1).mean(axis=1)
+    est = float(d.mean())
+    se = float(d.std(ddof=1) / math.sqrt(d.size)) if d.size > 1 else 0.0
+    floor = max(floor_se * se, data_range**2 * 10 ** (-PSNR_CAP / 10))
+    value = min(PSNR_CAP, 10.0 * math.log10(data_range**2 / max(est, floor)))
+    return UnbiasedPSNR(value, bool(est <= floor))

@@ -7,6 +7,9 @@
     E3 Fresnel    blends for f0 in {0.02, 0.04, 0.5, 1.0}: error against the viewing angle.
     E4 cost       frame time by effect set and face size, the map turning (refiltered) every frame.
     E5 reference  spp against noise floor and seconds.
+    E7 ladder     accuracy against time across real-time techniques (SH orders, irradiance maps,
+                  box vs lobe-prefiltered chains) with the path tracer's spp ladder on the same axes
+                  (experiments/ladder.py).
     E6 stability  every hard case (bright suns and SH windows, extreme exponents and sizes, broken
                   inputs, odd geometry, determinism) with what happened (experiments/stability.py).
 
@@ -27,7 +30,8 @@ import numpy as np
 
 from . import metrics, plots
 from .report import Section
-from .sweep import RESULTS, append_row, read_rows, row_id, run_row
+from .results import RESULTS, ResultRow, store_in
+from .sweep import row_id, run_row
 
 
 @dataclass(frozen=True)
@@ -76,8 +80,8 @@ def f2(x) -> str:
 class Suite:
     def __init__(self, out: Path, settings: Settings, progress):
         self.out, self.s, self.progress = out, settings, progress
-        self.results = out / RESULTS
-        self.done = {r["id"]: r for r in read_rows(self.results)}
+        self.store = store_in(out)
+        self.done: dict[str, ResultRow] = {r.id: r for r in self.store.read()}
         self.used: list[str] = []
         self.reused = 0  # rows found in results.jsonl from an interrupted or earlier run
         (out / "figures").mkdir(parents=True, exist_ok=True)
@@ -86,13 +90,13 @@ class Suite:
         return {"camera.width": self.s.size, "camera.height": self.s.size, "reference.spp": self.s.spp,
                 "realtime.timing_frames": self.s.frames, "realtime.warmup_frames": 3}
 
-    def row(self, spec: str, overrides: dict, experiment: str) -> dict:
+    def row(self, spec: str, overrides: dict, experiment: str, curve=None) -> ResultRow:
         """One compared configuration, resumable through results.jsonl."""
         ov = {**self.base(), **overrides}
         rid = row_id(spec, ov)
         if rid not in self.done:
-            self.done[rid] = run_row(self.out, spec, ov, {"experiment": experiment})
-            append_row(self.results, self.done[rid])
+            self.done[rid] = run_row(self.out, spec, ov, experiment, convergence_curve=curve)
+            self.store.append(self.done[rid])
         elif rid not in self.used:
             self.reused += 1
         if rid not in self.used:
@@ -103,9 +107,7 @@ class Suite:
     def keep_only_used(self) -> None:
         """Rewrite results.jsonl with this run's rows only (a quick run after a full one, or the reverse,
         must not mix the two in one report); atomic, like every write of the file."""
-        tmp = self.results.with_suffix(".tmp")
-        tmp.write_text("".join(json.dumps(self.done[i], allow_nan=False, sort_keys=True) + "\n" for i in self.used))
-        tmp.replace(self.results)
+        self.store.rewrite([self.done[i] for i in self.used])
 
     # ----------------------------------------------------------------------------- E1
     def e1(self) -> Section:
@@ -133,22 +135,22 @@ class Suite:
             sh_err = float(np.sqrt(np.mean((e_sh - exact) ** 2)) / np.sqrt(np.mean(exact**2)))
             mask = metrics.common_mask(test.mask, brute.mask)
             vs_brute = metrics.psnr(metrics.display(scene, test.rgb), metrics.display(scene, brute.rgb), mask)
-            rows.append({**r, "sh_rel_rms": sh_err, "psnr_vs_brute": vs_brute})
-            table.append([s, f2(r["psnr"]), f2(r["noise_floor_psnr"]), f2(vs_brute), f"{100 * sh_err:.3f}%",
-                          f2(r["realtime_ms"]["filter"]), f2(r["realtime_ms"]["draw"])])
+            rows.append((r, sh_err, vs_brute))
+            table.append([s, f2(r.psnr), f2(r.noise_floor_psnr), f2(vs_brute), f"{100 * sh_err:.3f}%",
+                          f2(r.realtime_ms["filter"]), f2(r.realtime_ms["draw"])])
         header = ["face size", "PSNR vs reference", "noise floor", "PSNR vs brute force", "SH9 irradiance rel. RMS",
                   "filter ms", "draw ms"]
         plt = plots.pyplot()
         fig, ax = plt.subplots(1, 2, figsize=(9, 3.6))
-        faces = [r["face_size"] for r in rows]
-        ax[0].plot(faces, [r["psnr"] for r in rows], "o-", label="vs reference")
-        ax[0].plot(faces, [r["psnr_vs_brute"] for r in rows], "s--", label="vs brute-force convolution")
-        ax[0].axhline(rows[0]["noise_floor_psnr"], color="grey", lw=0.8, ls=":", label="reference noise floor")
+        faces = [r.face_size for r, _, _ in rows]
+        ax[0].plot(faces, [r.psnr for r, _, _ in rows], "o-", label="vs reference")
+        ax[0].plot(faces, [b for _, _, b in rows], "s--", label="vs brute-force convolution")
+        ax[0].axhline(rows[0][0].noise_floor_psnr, color="grey", lw=0.8, ls=":", label="reference noise floor")
         ax[0].set_xscale("log", base=2)
         ax[0].set_xlabel("face size")
         ax[0].set_ylabel("PSNR (dB)")
         ax[0].legend(fontsize=8)
-        ax[1].plot(faces, [100 * r["sh_rel_rms"] for r in rows], "o-")
+        ax[1].plot(faces, [100 * e for _, e, _ in rows], "o-")
         ax[1].set_xscale("log", base=2)
         ax[1].set_xlabel("face size")
         ax[1].set_ylabel("SH9 irradiance error vs exact (% RMS)")
@@ -163,13 +165,13 @@ class Suite:
                        + figure_html("figures/e1_diffuse.png", "E1"), md, ["figures/e1_diffuse.png"])
 
     @staticmethod
-    def image_of(row: dict):
+    def image_of(row: ResultRow):
         """(scene, real-time Render) of a compared row, re-rendered with one frame: rows keep metrics,
         not images, and the image does not depend on how many frames were timed."""
         import realtime
         import scenes
 
-        sc = scenes.load(row["spec"]).with_overrides({**row["overrides"], "realtime.timing_frames": 1,
+        sc = scenes.load(row.spec).with_overrides({**row.overrides, "realtime.timing_frames": 1,
                                                        "realtime.warmup_frames": 0})
         return sc, realtime.render(sc)
 
@@ -185,13 +187,13 @@ class Suite:
                                         "realtime.lod_bias": b}, "E2") for b in self.s.e2_biases]
                 mc = self.row(spec, {"objects.*.material.exponent": n, "realtime.face_size": s,
                                      "realtime.lod_mapping": "mcguire", "realtime.lod_bias": 0.0}, "E2")
-                top = max(rows, key=lambda r: r["psnr"] if r["psnr"] is not None else -1e9)
+                top = max(rows, key=lambda r: r.psnr if r.psnr is not None else -1e9)
                 best[(n, s)] = (top, mc, rows)
                 formula = levels.mcguire_offset(s, n)
                 ends = (min(self.s.e2_biases), max(self.s.e2_biases))
-                edge = " (edge of the range)" if top["lod_bias"] in ends else ""
-                table.append([f"{n:g}", s, f"{top['lod_bias']:g}{edge}", f2(top["psnr"]), f"{formula:.2f}",
-                              f2(mc["psnr"]), f2(top["noise_floor_psnr"])])
+                edge = " (edge of the range)" if top.lod_bias in ends else ""
+                table.append([f"{n:g}", s, f"{top.lod_bias:g}{edge}", f2(top.psnr), f"{formula:.2f}",
+                              f2(mc.psnr), f2(top.noise_floor_psnr)])
         header = ["N", "face size", "best bias (paper mapping)", "PSNR at best", "McGuire offset",
                   "PSNR with McGuire", "noise floor"]
         plt = plots.pyplot()
@@ -200,7 +202,7 @@ class Suite:
             ax = axes[0, j]
             for s in self.s.e2_faces:
                 top, mc, rows = best[(n, s)]
-                ax.plot([r["lod_bias"] for r in rows], [r["psnr"] for r in rows], "o-", ms=3, label=f"{s}²")
+                ax.plot([r.lod_bias for r in rows], [r.psnr for r in rows], "o-", ms=3, label=f"{s}²")
                 ax.axvline(levels.mcguire_offset(s, n), color=ax.lines[-1].get_color(), ls=":", lw=0.8)
             ax.set_title(f"N = {n:g}")
             ax.set_xlabel("LOD bias (dotted: McGuire offset)")
@@ -239,7 +241,7 @@ class Suite:
                     rms.append(float(np.sqrt(np.mean(err[sel] ** 2))))
             ax.plot(centres, rms, "o-", label=f"f0 = {f0:g}")
             grazing = rms[0] if centres and centres[0] > 70 else None
-            table.append([f"{f0:g}", f2(r["psnr"]), f"{r['ssim']:.4f}", "-" if grazing is None else f"{grazing:.4f}",
+            table.append([f"{f0:g}", f2(r.psnr), f"{r.ssim:.4f}", "-" if grazing is None else f"{grazing:.4f}",
                           f"{rms[-1]:.4f}" if rms else "-"])
         ax.set_xlabel("viewing angle from the normal (degrees)")
         ax.set_ylabel("RMS display error")
@@ -360,9 +362,11 @@ def e6_section(spp: int, progress) -> Section:
     return Section("E6 stability: hard cases", html, md)
 
 
-def count_steps(s: Settings) -> int:
+def count_steps(s: Settings, quick: bool) -> int:
+    from . import ladder
+
     return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
-            + 4 * len(s.e4_faces) + len(s.e5_spps) + 6)
+            + 4 * len(s.e4_faces) + len(s.e5_spps) + 6 + ladder.count_steps(ladder.QUICK if quick else ladder.FULL))
 
 
 def run(out: Path, quick: bool = False) -> Path:
@@ -378,7 +382,7 @@ def run(out: Path, quick: bool = False) -> Path:
     columns = [rp.TextColumn("[bold]paper"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}")]
     with rp.Progress(*columns) as progress:
-        task = progress.add_task("", total=count_steps(settings))
+        task = progress.add_task("", total=count_steps(settings, quick))
         suite = Suite(out, settings, lambda: progress.advance(task))
         sections = []
         for name in ("e1", "e2", "e3", "e4", "e5"):
@@ -386,6 +390,12 @@ def run(out: Path, quick: bool = False) -> Path:
             t = time.perf_counter()
             sections.append(getattr(suite, name)())
             timings[name.upper()] = time.perf_counter() - t
+        progress.update(task, description="E7")
+        t = time.perf_counter()
+        from . import ladder
+
+        sections.append(ladder.run(suite, quick, lambda: progress.advance(task)))
+        timings["E7"] = time.perf_counter() - t
         progress.update(task, description="E6")
         t = time.perf_counter()
         sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))

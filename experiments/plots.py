@@ -1,4 +1,5 @@
-"""Matplotlib figures of sweep rows: accuracy against LOD bias, accuracy against time, cost against size."""
+"""Matplotlib figures of result rows (experiments/results.py): accuracy against LOD bias and against
+time, cost against size."""
 
 from __future__ import annotations
 
@@ -39,15 +40,15 @@ def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
 
 def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     """PSNR and SSIM against LOD bias, one line per face size, one column per glossy scene."""
-    glossy = [r for r in rows if "glossy" in r["effects"] and r.get("psnr") is not None]
+    glossy = [r for r in rows if "glossy" in r.effects and r.psnr is not None and r.techniques.get("glossy") == "box"]
 
     def panel(r):  # one panel per scene and material variant, one line per face size and mapping
-        return (r["scene"], r["exponent"], r["f0"] if "fresnel" in r["effects"] else None, r["env"])
+        return (r.scene, r.exponent, r.f0 if "fresnel" in r.effects else None, r.env)
 
     biases = defaultdict(set)  # only panels that actually sweep the bias (paper mapping, two biases or more)
     for r in glossy:
-        if r["lod_mapping"] == "paper":
-            biases[panel(r)].add(r["lod_bias"])
+        if r.lod_mapping == "paper":
+            biases[panel(r)].add(r.lod_bias)
     panels = sorted((k for k, b in biases.items() if len(b) >= 2), key=str)[:8]
     if not panels:
         return False
@@ -56,8 +57,8 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     for j, key in enumerate(panels):
         series = defaultdict(list)
         for r in glossy:
-            if panel(r) == key and r["lod_mapping"] == "paper":
-                series[r["face_size"]].append((r["lod_bias"], r["psnr"], r["ssim"]))
+            if panel(r) == key and r.lod_mapping == "paper":
+                series[r.face_size].append((r.lod_bias, r.psnr, r.ssim))
         name = f"{key[0]} N={key[1]:g}" + (f" f0={key[2]:g}" if key[2] is not None else "")
         for s in sorted(series):
             pts = sorted(series[s])
@@ -77,17 +78,17 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
 
 def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     """PSNR against total frame time, every configuration, the Pareto front marked."""
-    pts = [r for r in rows if r.get("psnr") is not None and r["realtime_ms"].get("total")]
+    pts = [r for r in rows if r.psnr is not None and r.realtime_ms.get("total")]
     if not pts:
         return False
     plt = pyplot()
-    t = np.array([r["realtime_ms"]["total"] for r in pts])
-    p = np.array([r["psnr"] for r in pts])
+    t = np.array([r.realtime_ms["total"] for r in pts])
+    p = np.array([r.psnr for r in pts])
     from matplotlib.ticker import ScalarFormatter
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
-    for name in sorted({r["scene"] for r in pts}):  # fronts per scene: different scenes do not compete
-        sel = np.flatnonzero([r["scene"] == name for r in pts])
+    for name in sorted({r.scene for r in pts}):  # fronts per scene: different scenes do not compete
+        sel = np.flatnonzero([r.scene == name for r in pts])
         dots = ax.scatter(t[sel], p[sel], s=16, alpha=0.5, label=name)
         front = sel[pareto_front(t[sel], p[sel])]
         ax.plot(t[front], p[front], color=dots.get_facecolor()[0][:3], lw=1.4, drawstyle="steps-post")
@@ -95,7 +96,7 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     ax.set_xscale("log")
     ax.xaxis.set_major_formatter(ScalarFormatter())
     ax.xaxis.set_minor_formatter(ScalarFormatter())
-    ax.set_xlabel("frame time, filter + draw (ms, median)")
+    ax.set_xlabel("frame time, all per-frame work + draw (ms, median)")
     ax.set_ylabel("PSNR (dB)")
     ax.set_title("What accuracy costs in time")
     ax.grid(alpha=0.3, which="both")
@@ -109,8 +110,8 @@ def cost_vs_size(rows: list[dict], path: Path) -> bool:
     by = defaultdict(lambda: {"filter": [], "draw": []})
     for r in rows:
         for k in ("filter", "draw"):
-            if r["realtime_ms"].get(k) is not None:
-                by[r["face_size"]][k].append(r["realtime_ms"][k])
+            if r.realtime_ms.get(k) is not None:
+                by[r.face_size][k].append(r.realtime_ms[k])
     if not by:
         return False
     plt = pyplot()

@@ -12,7 +12,7 @@ from scenes import imageio
 from scenes.render import Render
 
 from . import images, metrics
-from .cli import UsageError, load_scene
+from .inputs import UsageError, load_scene
 
 
 def render_with(renderer: str, scene) -> Render:
@@ -45,7 +45,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"-o {out}: the output must be an .exr file")
     result = render_with(args.renderer, scene)
     write_outputs(out, scene, result)
-    shown = ("variant", "spp", "seed", "integrator", "model", "face_size", "cache")
+    shown = ("variant", "spp", "seed", "integrator", "model", "face_size", "cache", "techniques",
+             "unsimulated_effects")
     extra = {k: v for k, v in result.meta.items() if k in shown}
     print(json.dumps({"scene": scene.name, "renderer": args.renderer, "out": str(out),
                       "timings_ms": result.timings, **extra}))

@@ -1,0 +1,101 @@
+"""Sweep axes (issue 10): any scene key, technique keys only where the technique runs, no duplicates,
+negative values without `=`; result rows through their typed store."""
+
+from __future__ import annotations
+
+import json
+
+import pytest
+
+import scenes
+from experiments import cli, sweep
+from experiments.results import ResultRow, ResultStore
+from scenes import InputError
+
+
+def configs(spec: str, **kw) -> list[dict]:
+    axes = sweep.Axes(**{"face_sizes": [16], "lod_biases": None, **kw})
+    return sweep.configurations(scenes.load(spec), axes)
+
+
+def test_technique_keys_vary_only_where_the_technique_runs():
+    got = configs("builtin:sphere-phong", lod_biases=[0.0, 1.0],
+                  extra=[("realtime.glossy", ["box", "prefiltered"]), ("realtime.prefiltered.samples", [16, 64])])
+    # the product's order, with the repeats (the bias of prefiltered rows, the samples of box rows) dropped
+    assert got == [
+        {"realtime.face_size": 16, "realtime.lod_bias": 0.0, "realtime.glossy": "box"},
+        {"realtime.face_size": 16, "realtime.glossy": "prefiltered", "realtime.prefiltered.samples": 16},
+        {"realtime.face_size": 16, "realtime.glossy": "prefiltered", "realtime.prefiltered.samples": 64},
+        {"realtime.face_size": 16, "realtime.lod_bias": 1.0, "realtime.glossy": "box"},
+    ]
+
+
+def test_axes_a_scene_cannot_use_are_dropped_and_rows_not_repeated():
+    # sphere-diffuse has no glossy effect: the glossy technique, the bias and the exponent cannot matter
+    got = configs("builtin:sphere-diffuse", face_sizes=[16, 16, 32], lod_biases=[0.0, 1.0], exponents=[10.0, 100.0],
+                  extra=[("realtime.glossy", ["box", "prefiltered"]), ("realtime.sh_order", [2, 4])])
+    assert got == [{"realtime.face_size": s, "realtime.sh_order": o} for s in (16, 32) for o in (2, 4)]
+
+
+def test_plan_validates_every_configuration_before_rendering():
+    with pytest.raises(InputError, match="not implemented yet"):
+        sweep.plan(["builtin:sphere-phong"], sweep.Axes(face_sizes=[16], lod_biases=None,
+                                                         extra=[("realtime.glossy", ["box", "lights"])]))
+
+
+@pytest.mark.parametrize(("argv", "want"), [
+    (["sweep", "s", "--lod-biases", "-1,0,1"], ["sweep", "s", "--lod-biases=-1,0,1"]),
+    (["sweep", "s", "--lod-biases", "-.5"], ["sweep", "s", "--lod-biases=-.5"]),
+    (["sweep", "s", "--axis", "realtime.lod_bias=-1,2"], ["sweep", "s", "--axis", "realtime.lod_bias=-1,2"]),
+    (["gate", "s", "--min-psnr", "-3"], ["gate", "s", "--min-psnr=-3"]),
+    (["sweep", "s", "--lod-biases", "--out", "x"], ["sweep", "s", "--lod-biases", "--out", "x"]),
+])
+def test_negative_values_need_no_equals_sign(argv, want):
+    assert cli.join_negative_values(argv) == want
+    if argv[0] == "sweep" and "--out" not in argv:
+        args = cli.build_parser().parse_args(cli.join_negative_values(argv))
+        assert cli.parse_list(args.lod_biases, float, "--lod-biases") is None or args.lod_biases.startswith("-")
+
+
+def test_parse_axis():
+    from experiments.inputs import UsageError, parse_axis
+
+    assert parse_axis("realtime.glossy=box,prefiltered") == ("realtime.glossy", ["box", "prefiltered"])
+    assert parse_axis("realtime.lod_bias=-1,0.5") == ("realtime.lod_bias", [-1, 0.5])
+    with pytest.raises(UsageError):
+        parse_axis("realtime.glossy")
+
+
+def row(i: int) -> ResultRow:
+    return ResultRow(id=f"r{i}", spec="builtin:sphere-blend", overrides={"realtime.face_size": 16},
+                     scene="sphere-blend", techniques={"diffuse": "sh", "sh_order": 2, "sh_window": "none",
+                                                       "glossy": "box", "lod_bias": 0.5, "lod_mapping": "paper"},
+                     materials=[{"type": "blend", "kd": [0.8] * 3, "exponent": 100.0, "f0": 0.04},
+                                {"type": "diffuse", "kd": [0.5] * 3}],
+                     env="builtin:uffizi", effects=["diffuse", "fresnel", "glossy"], unsimulated_effects=[],
+                     width=8, height=8, face_size=16, psnr=30.0 + i, ssim=0.9, flip=0.1, rel_mse=0.01,
+                     noise_floor_psnr=40.0, at_noise_floor=False, pixels=40, realtime_ms={"total": 2.0})
+
+
+def test_rows_round_trip_and_record_every_material(tmp_path):
+    store = ResultStore(tmp_path / "results.jsonl")
+    store.append(row(0))
+    store.append(row(1))
+    back = store.read()
+    assert back == [row(0), row(1)]
+    assert [m["type"] for m in back[0].materials] == ["blend", "diffuse"]
+    assert back[0].lod_bias == 0.5 and back[0].exponent == 100.0 and back[0].material == "blend"
+
+
+def test_a_half_written_line_is_cut_and_a_corrupt_line_named(tmp_path):
+    path = tmp_path / "results.jsonl"
+    store = ResultStore(path)
+    store.append(row(0))
+    with open(path, "a") as f:
+        f.write('{"id": "half')
+    assert [r.id for r in store.read()] == ["r0"]
+    assert path.read_text().endswith("\n")
+    with open(path, "a") as f:
+        f.write(json.dumps({"id": "x"}) + "\n")
+    with pytest.raises(InputError, match="line 2"):
+        store.read()
