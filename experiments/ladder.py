@@ -1,0 +1,201 @@
+"""E7 of the paper suite: the accuracy-time ladder across real-time techniques (issue 10).
+
+For each scene (sphere-diffuse, sphere-phong at N = 10, 100, 1000, sphere-blend) every technique
+the scene can use, at its main parameter, is one point: `psnr_unbiased` (the PSNR a noise-free
+reference would give, experiments.metrics) against the frame's per-frame milliseconds (every
+per-frame key + draw). The path tracer's own spp ladder (experiments.convergence) is drawn on the
+same axes, so `equal_quality_s` — the seconds Mitsuba needs to reach a technique's quality — and the
+speed-up at equal quality (equal_quality_s / frame time) can be read off. Pareto fronts per scene.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from .report import Section
+from .results import ResultRow
+
+
+@dataclass(frozen=True)
+class LadderSettings:
+    sh: tuple[tuple[int, str], ...]  # (order, window)
+    irradiance: tuple[tuple[int, int], ...]  # (size, source_size)
+    box_biases: tuple[float, ...]
+    samples: tuple[int, ...]
+    blend: tuple[tuple[dict, dict], ...]  # (diffuse overrides, glossy overrides)
+    max_spp: int
+
+
+def sh_ov(order: int, window: str = "none") -> dict:
+    return {"realtime.diffuse": "sh", "realtime.sh_order": order, "realtime.sh_window": window}
+
+
+def irr_ov(size: int, source: int) -> dict:
+    return {"realtime.diffuse": "irradiance_map", "realtime.irradiance_map.size": size,
+            "realtime.irradiance_map.source_size": source}
+
+
+def box_ov(bias: float = 0.0, mapping: str = "paper") -> dict:
+    return {"realtime.glossy": "box", "realtime.lod_bias": bias, "realtime.lod_mapping": mapping}
+
+
+def pre_ov(samples: int) -> dict:
+    return {"realtime.glossy": "prefiltered", "realtime.prefiltered.samples": samples}
+
+
+_BLEND = ((sh_ov(2), box_ov()), (sh_ov(2), box_ov(0.0, "mcguire")), (sh_ov(4), box_ov(0.0, "mcguire")),
+          (sh_ov(2), pre_ov(64)), (sh_ov(4), pre_ov(256)), (irr_ov(32, 32), pre_ov(64)),
+          (irr_ov(32, 32), pre_ov(256)), (irr_ov(32, 32), box_ov(0.0, "mcguire")))
+QUICK = LadderSettings(sh=((2, "none"), (3, "none"), (4, "none"), (4, "auto")), irradiance=((16, 16), (32, 32)),
+                       box_biases=(0.0, 2.0, 4.0), samples=(16, 64, 256), blend=_BLEND[:6], max_spp=1024)
+FULL = LadderSettings(sh=((2, "none"), (2, "auto"), (3, "none"), (3, "auto"), (4, "none"), (4, "auto")),
+                      irradiance=((16, 16), (32, 32), (64, 32), (32, 64)),
+                      box_biases=(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0), samples=(16, 64, 256, 1024), blend=_BLEND,
+                      max_spp=4096)
+EXPONENTS = (10.0, 100.0, 1000.0)
+
+
+def scene_list() -> list[tuple[str, str, dict]]:
+    """(label, spec, overrides) of E7's scenes."""
+    out = [("sphere-diffuse", "builtin:sphere-diffuse", {})]
+    out += [(f"sphere-phong N={n:g}", "builtin:sphere-phong", {"objects.*.material.exponent": n}) for n in EXPONENTS]
+    out.append(("sphere-blend", "builtin:sphere-blend", {}))
+    return out
+
+
+def configs_for(label: str, s: LadderSettings) -> list[dict]:
+    if label == "sphere-diffuse":
+        return [sh_ov(o, w) for o, w in s.sh] + [irr_ov(a, b) for a, b in s.irradiance]
+    if label.startswith("sphere-phong"):
+        return ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples])
+    return [{**d, **g} for d, g in s.blend]
+
+
+def count_steps(s: LadderSettings) -> int:
+    return sum(len(configs_for(label, s)) + 1 for label, _, _ in scene_list())
+
+
+def frame_ms(r: ResultRow) -> float | None:
+    return r.realtime_ms.get("total")
+
+
+def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
+    """Render E7's rows through `suite.row` (resumable) and build its section."""
+    import scenes
+
+    from . import convergence, plots
+
+    s = QUICK if quick else FULL
+    per_scene: dict[str, tuple[list[ResultRow], list]] = {}
+    for label, spec, ov in scene_list():
+        scene = scenes.load(spec).with_overrides({**suite.base(), **ov})
+        curve = convergence.curve(scene, max_spp=s.max_spp)
+        progress()
+        rows = [suite.row(spec, {**ov, **c}, "E7", curve=curve) for c in configs_for(label, s)]
+        per_scene[label] = (rows, curve)
+    table = []
+    for label, (rows, _) in per_scene.items():
+        for r in sorted(rows, key=lambda r: frame_ms(r) or 0.0):
+            ms = frame_ms(r)
+            speed = None if r.equal_quality_s is None or not ms else r.equal_quality_s / (ms / 1e3)
+            table.append([label, r.technique_label, f2(r.psnr), f2(r.psnr_unbiased) + (" (floor)" if
+                          r.psnr_unbiased_clamped else ""), f2(ms), f2(r.realtime_ms.get("precompute")),
+                          "-" if r.equal_quality_s is None else f"{r.equal_quality_s:.3g}"
+                          + (" (extrapolated)" if (r.equal_quality or "").startswith("extrapolated") else ""),
+                          "-" if speed is None else f"{speed:,.3g}x"])
+    figure = "figures/e7_ladder.png"
+    plot(per_scene, suite.out / figure, plots)
+    header = ["scene", "technique", "PSNR dB", "unbiased PSNR dB", "frame ms", "precompute ms",
+              "path tracer s to equal quality", "speed-up at equal quality"]
+    findings = summarize(per_scene)
+    note = ("Frame ms: the median of every per-frame part (cube map + chain + SH = `filter`, the irradiance "
+            "convolution, the lobe prefilter) plus the shading pass, with the map refiltered every frame. "
+            "Unbiased PSNR removes the reference's own noise (half the mean squared difference of its two "
+            "seeds) from the error; '(floor)' marks a value clamped at what the reference can resolve. The "
+            "path tracer's time to equal quality comes from the scene's own spp ladder (two seeds per rung, "
+            "its noise floor as its PSNR), sampling time only.")
+    from .paper import figure_html, html_table, md_table
+
+    md = "\n".join(f"- {f}" for f in findings) + "\n\n" + md_table(header, table) + "\n\n" + note
+    html = ("<ul>" + "".join(f"<li>{f}</li>" for f in findings) + "</ul>" + html_table(header, table)
+            + f"<p>{note}</p>" + figure_html(figure, "E7"))
+    return Section("E7 accuracy against time across techniques", html, md, [figure])
+
+
+def f2(x) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+def family(r: ResultRow) -> str:
+    t = r.techniques
+    parts = []
+    if "diffuse" in r.effects:
+        parts.append(f"SH{t['sh_order']}" if t.get("diffuse") == "sh" else "irradiance map")
+    if "glossy" in r.effects:
+        g = t.get("glossy")
+        parts.append(("box McGuire" if t.get("lod_mapping") == "mcguire" else "box") if g == "box" else g)
+    return " + ".join(parts)
+
+
+def plot(per_scene: dict, path, plots) -> None:
+    import numpy as np
+
+    plt = plots.pyplot()
+    n = len(per_scene)
+    cols = min(n, 3)
+    rows_n = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows_n, cols, figsize=(4.6 * cols, 4.0 * rows_n), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    for ax, (label, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=False):
+        pts = [r for r in rows if r.psnr_unbiased is not None and frame_ms(r)]
+        fams = sorted({family(r) for r in pts})
+        for fam in fams:
+            sel = [r for r in pts if family(r) == fam]
+            ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=22, label=fam)
+        if pts:
+            t = np.array([frame_ms(r) for r in pts])
+            p = np.array([r.psnr_unbiased for r in pts])
+            front = plots.pareto_front(t, p)
+            ax.plot(t[front], p[front], color="k", lw=1.0, drawstyle="steps-post", label="Pareto front")
+        ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
+        if ladder:
+            from .convergence import time_model
+
+            model = time_model(curve)
+            secs = [(model.per_spp_s * spp if model else sec) for spp, sec, _ in ladder]
+            ax.plot([1e3 * x for x in secs], [d for _, _, d in ladder], "--", color="grey", marker="x",
+                    label="path tracer (spp ladder)")
+        ax.set_xscale("log")
+        ax.set_xlim(0.5, 2e5)
+        ax.set_title(label)
+        ax.set_xlabel("time per image (ms, log)")
+        ax.set_ylabel("unbiased PSNR (dB)")
+        ax.grid(alpha=0.3, which="both")
+        ax.legend(fontsize=6)
+    plots.save(fig, path)
+
+
+def summarize(per_scene: dict) -> list[str]:
+    """A few sentences of what each step of accuracy costs, computed from the rows."""
+    out = []
+    for label, (rows, _) in per_scene.items():
+        ok = [r for r in rows if r.psnr_unbiased is not None and frame_ms(r)]
+        if not ok:
+            continue
+        best = max(ok, key=lambda r: r.psnr_unbiased)
+        cheap = min(ok, key=frame_ms)
+        line = (f"{label}: best {best.technique_label} at {best.psnr_unbiased:.2f} dB in {frame_ms(best):.1f} ms; "
+                f"cheapest {cheap.technique_label} at {cheap.psnr_unbiased:.2f} dB in {frame_ms(cheap):.1f} ms")
+        if best.equal_quality_s:
+            line += (f"; the path tracer needs {best.equal_quality_s:.3g} s for the best one's quality "
+                     f"({best.equal_quality_s / (frame_ms(best) / 1e3):,.3g}x the frame time)")
+        out.append(line + ".")
+        by = {r.technique_label: r for r in ok}
+        o2, o3 = by.get("SH order 2"), by.get("SH order 3")
+        if o2 and o3:
+            out.append(f"{label}: SH order 3 gives {o3.psnr_unbiased - o2.psnr_unbiased:+.3f} dB over order 2 "
+                       f"(A_3 = 0: the odd band adds nothing to irradiance) for "
+                       f"{frame_ms(o3) - frame_ms(o2):+.2f} ms.")
+    return out
