@@ -23,6 +23,7 @@ class LadderSettings:
     irradiance: tuple[tuple[int, int], ...]  # (size, source_size)
     box_biases: tuple[float, ...]
     samples: tuple[int, ...]
+    fis_biases: tuple[float, ...]  # extra rows at 64 samples: Filament's +1 level
     blend: tuple[tuple[dict, dict], ...]  # (diffuse overrides, glossy overrides)
     max_spp: int
 
@@ -40,18 +41,21 @@ def box_ov(bias: float = 0.0, mapping: str = "paper") -> dict:
     return {"realtime.glossy": "box", "realtime.lod_bias": bias, "realtime.lod_mapping": mapping}
 
 
-def pre_ov(samples: int) -> dict:
-    return {"realtime.glossy": "prefiltered", "realtime.prefiltered.samples": samples}
+def pre_ov(samples: int, bias: float = 0.0) -> dict:
+    return {"realtime.glossy": "prefiltered", "realtime.prefiltered.samples": samples,
+            "realtime.prefiltered.bias": bias}
 
 
 _BLEND = ((sh_ov(2), box_ov()), (sh_ov(2), box_ov(0.0, "mcguire")), (sh_ov(4), box_ov(0.0, "mcguire")),
           (sh_ov(2), pre_ov(64)), (sh_ov(4), pre_ov(256)), (irr_ov(32, 32), pre_ov(64)),
           (irr_ov(32, 32), pre_ov(256)), (irr_ov(32, 32), box_ov(0.0, "mcguire")))
 QUICK = LadderSettings(sh=((2, "none"), (3, "none"), (4, "none"), (4, "auto")), irradiance=((16, 16), (32, 32)),
-                       box_biases=(0.0, 2.0, 4.0), samples=(16, 64, 256), blend=_BLEND[:6], max_spp=1024)
+                       box_biases=(0.0, 2.0, 4.0), samples=(16, 64, 256), fis_biases=(), blend=_BLEND[:6],
+                       max_spp=1024)
 FULL = LadderSettings(sh=((2, "none"), (2, "auto"), (3, "none"), (3, "auto"), (4, "none"), (4, "auto")),
                       irradiance=((16, 16), (32, 32), (64, 32), (32, 64)),
-                      box_biases=(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0), samples=(16, 64, 256, 1024), blend=_BLEND,
+                      box_biases=(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0), samples=(16, 64, 256, 1024),
+                      fis_biases=(1.0,), blend=_BLEND,
                       max_spp=4096)
 EXPONENTS = (10.0, 100.0, 1000.0)
 
@@ -68,7 +72,8 @@ def configs_for(label: str, s: LadderSettings) -> list[dict]:
     if label == "sphere-diffuse":
         return [sh_ov(o, w) for o, w in s.sh] + [irr_ov(a, b) for a, b in s.irradiance]
     if label.startswith("sphere-phong"):
-        return ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples])
+        return ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples]
+                + [pre_ov(64, b) for b in s.fis_biases])
     return [{**d, **g} for d, g in s.blend]
 
 

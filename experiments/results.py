@@ -104,7 +104,8 @@ class ResultRow:
                                                                  else ""))
             elif g == "prefiltered":
                 p = t.get("prefiltered", {})
-                parts.append(f"prefiltered {p.get('samples')} spl")
+                parts.append(f"prefiltered {p.get('samples')} spl" + (f" FIS bias {p.get('bias'):g}" if p.get("bias")
+                                                                         else ""))
             else:
                 parts.append(str(g))
         return ", ".join(parts)

@@ -1,6 +1,6 @@
 """Irradiance cube map by brute-force convolution: the exact sum that the paper's SH9 approximates.
 
-    E(n) = sum_texels L(w) max(n.w, 0) dOmega(w)        [W m^-2 sr^0: radiance x solid angle]
+    E(n) = sum_texels L(w) max(n.w, 0) dOmega(w)        [units of L x sr: W m^-2 for L in W m^-2 sr^-1]
 
 over every texel w of one level of the environment cube map (face size `source_size`), with the
 exact texel solid angles (scenes.cubemap.texel_solid_angles, as the SH projection uses), for n =
@@ -11,10 +11,11 @@ By default the sum is normalised by its discrete kernel mass,
 
     E(n) = pi sum(L c dOmega) / sum(c dOmega),   c = max(n.w, 0),
 
-which makes a constant map of radiance 1 give E = pi exactly (the plain sum is off by 1e-3 at
-source face 16 and 8e-5 at 32: the midpoint rule on the cosine's kink at the horizon) and cancels
-that quadrature error to first order elsewhere (groundtruth/quadrature.py normalises its kernels
-the same way). `normalize=False` gives the plain sum.
+which makes a constant map of radiance 1 give E = pi exactly (the plain sum is off by up to 1e-3
+at source face 16 and 8e-5 at 32: the midpoint rule on the cosine's kink at the horizon), as
+groundtruth/quadrature.py normalises its kernels. On a real probe both agree with the exact
+integral to ~7e-4 of the largest E at source face 32 (2.5e-3 at 16, 6e-3 at 8): the level's own
+resolution, not the kernel, limits them there. `normalize=False` gives the plain sum.
 
 `IrradianceConvolver` is the GPU kernel (irradiance_pack.comp, irradiance_convolve.comp: several
 outputs per invocation, each output's antipode from the same n.w); `irradiance_cube_numpy` is the
@@ -88,7 +89,8 @@ class IrradianceConvolver:
         self.normalize = normalize
         self.block, self.local_x, self.local_y = _layout(size)
         self.pack_prog = ctx.compute_shader(shader_source("irradiance_pack.comp"))
-        defines = (f"B {self.block}", f"LX {self.local_x}", f"LY {self.local_y}") + (("NORMALIZE",) if normalize else ())
+        defines = (f"B {self.block}", f"LX {self.local_x}", f"LY {self.local_y}")
+        defines += ("NORMALIZE",) if normalize else ()
         self.prog = ctx.compute_shader(shader_source("irradiance_convolve.comp", defines))
         w = texel_weights(source_size).reshape(6 * source_size, source_size, 4)
         self.weights = ctx.texture((source_size, 6 * source_size), 4, w.astype("f4").tobytes(), dtype="f4")
