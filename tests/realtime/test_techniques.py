@@ -92,3 +92,18 @@ def test_owner_of_technique_keys():
     assert technique.owner_of("realtime.prefiltered.samples") == ("glossy", "prefiltered")
     assert technique.owner_of("realtime.irradiance_map.size") == ("diffuse", "irradiance_map")
     assert technique.owner_of("realtime.face_size") is None
+
+
+@pytest.mark.parametrize(("face", "exponent", "want"), [
+    # w = 4 sqrt(N) texels per face (at least 8); lod = log2(256 / w), never finer than level(s)
+    (64, 100.0, 2.678071905),  # w = 40: log2(6.4)
+    (64, 10.0, 4.338856126),  # w = 12.649: log2(20.239)
+    (64, 0.0, 5.0),  # a hemisphere: the 8-texel floor, log2(32)
+    (64, 1e4, 2.0),  # w = 400 > 256: the selected level 2 (face 64) bounds it
+    (256, 1e4, 0.0),  # ... and at face 256 the base level
+    (16, 100.0, 4.0),  # level(16) = 4 is coarser than the lobe's 2.678
+])
+def test_prefiltered_lod_by_hand(face, exponent, want):
+    from realtime import levels
+
+    assert levels.prefiltered_lod(face, 256, exponent) == pytest.approx(want, abs=1e-8)
