@@ -96,8 +96,8 @@ def test_owner_of_technique_keys():
 
 @pytest.mark.parametrize(("face", "exponent", "want"), [
     # w = 4 sqrt(N) texels per face (at least 8); lod = log2(256 / w), never finer than level(s)
-    (64, 100.0, 2.678071905),  # w = 40: log2(6.4)
-    (64, 10.0, 4.338856126),  # w = 12.649: log2(20.239)
+    (64, 100.0, 2.678071905),  # w = 40: 8 - 2 - log2(10) = log2(6.4)
+    (64, 10.0, 4.339035953),  # w = 12.649: 8 - 2 - log2(10) / 2
     (64, 0.0, 5.0),  # a hemisphere: the 8-texel floor, log2(32)
     (64, 1e4, 2.0),  # w = 400 > 256: the selected level 2 (face 64) bounds it
     (256, 1e4, 0.0),  # ... and at face 256 the base level
