@@ -12,8 +12,7 @@ from __future__ import annotations
 import moderngl
 
 from . import levels
-from .glossy_box import set_uniform
-from .technique import Frame, Technique
+from .technique import Frame, Technique, set_uniform
 
 IRRADIANCE_UNIT = 2
 

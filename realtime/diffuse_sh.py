@@ -39,14 +39,20 @@ class ShDiffuse(Technique):
         scene = frame.scene
         coeffs = sh.project_equirect(scene.environment.radiance(), scene.environment.rotation_deg, order=self.order)
         self.window = deringing.choose(scene.realtime.sh_window, coeffs)
-        if self.order != 2:
+        if self.order != 2 and scene.realtime.parameterization == "cube":
             from .sh_orders import ShProjector
 
             self.projector = ShProjector(frame.ctx, self.order)
+        elif self.order != 2:  # a 2D parameterization (realtime/parameterizations.py)
+            from .parameterizations import MapShProjector
+
+            self.projector = MapShProjector(frame.ctx, self.order)
 
     def update(self, frame: Frame) -> None:
         if self.projector is None:
             frame.env_filter.project_sh(frame.face_size, self.window.factors)
+        elif frame.env_filter.parameterization != "cube":
+            self.projector.run(frame.env_filter, frame.level, frame.face_size, self.window.factors)
         else:
             self.projector.run(frame.env_filter.cube, frame.level, frame.face_size, self.window.factors)
 

@@ -3,11 +3,12 @@
     render(scene) -> Render
 
 Once per scene: the techniques for the scene's effects are chosen and prepared (`precompute`, ms).
-Per frame (the paper refilters every frame for dynamic lighting): the environment's cube map and its
-2x2 box chain are rebuilt, then every technique's `update` runs; `filter` is the cube map + chain +
-the techniques whose timing key is `filter` (the paper's SH projection), other techniques have their
-own keys (`irradiance`, `prefilter`, ...); then the shading pass (`draw`). `total` is the sum of the
-per-frame keys and `draw`. The environment behind the objects is timed apart as `background` (it is
+Per frame (the paper refilters every frame for dynamic lighting): the environment's cube map (or the
+2D map of `realtime.parameterization`, realtime/parameterizations.py) and its 2x2 box chain are
+rebuilt, then every technique's `update` runs; `filter` is the cube map + chain + the techniques
+whose timing key is `filter` (the paper's SH projection), other techniques have their own keys
+(`irradiance`, `prefilter`, ...); then the shading pass (`draw`). `total` is the sum of the per-frame
+keys and `draw`. The environment behind the objects is timed apart as `background` (it is
 not part of any method and is masked out of metrics). Timings are medians and p90 over
 `realtime.timing_frames` frames after `realtime.warmup_frames` warm-up frames (design.md section 7).
 """
@@ -48,7 +49,8 @@ def warn_unsimulated(scene) -> list[str]:
 def render(scene) -> Render:
     """Render a scene in real time with its techniques; see the module docstring."""
     from .context import get_context, is_software, renderer_name
-    from .gpu import EnvironmentFilter, SceneDrawer
+    from .gpu import SceneDrawer
+    from .parameterizations import environment_store
     from .timing import summarize, timed
 
     rt = scene.realtime
@@ -57,7 +59,7 @@ def render(scene) -> Render:
     distance = object_distance(scene)
     face_size = levels.select_face_size(rt.face_size, distance, rt.base_size)
     level = levels.level_of(face_size, rt.base_size)
-    env_filter = EnvironmentFilter(ctx, scene.environment.radiance(), rt.base_size)
+    env_filter = environment_store(ctx, scene)  # realtime.parameterization: cube (the paper's) or a 2D map
     frame = technique.Frame(ctx, scene, env_filter, face_size, level, scene.environment.rotation_deg)
     techniques: list[technique.Technique] = []
     drawer = None
@@ -115,6 +117,7 @@ def render(scene) -> Render:
             "frames": rt.timing_frames,
             "warmup_frames": rt.warmup_frames,
         }
+        meta.update(env_filter.meta())
         for t in techniques:
             meta.update(t.meta())
         timings = summarize(samples)

@@ -18,8 +18,7 @@ import math
 import moderngl
 
 from . import levels
-from .glossy_box import set_uniform
-from .technique import Frame, Technique
+from .technique import Frame, Technique, set_uniform
 
 PREFILTERED_UNIT = 3
 

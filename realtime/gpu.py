@@ -60,7 +60,11 @@ def groups(n: int, local: int = 8) -> int:
 
 
 class EnvironmentFilter:
-    """HDR cube map + mip chain + SH9 of one environment, refiltered on demand."""
+    """HDR cube map + mip chain + SH9 of one environment, refiltered on demand.
+
+    The `cube` environment store; realtime/parameterizations.py has the others, with the same API."""
+
+    parameterization = "cube"
 
     def __init__(self, ctx: moderngl.Context, env: np.ndarray, base_size: int) -> None:
         self.ctx = ctx
@@ -74,8 +78,7 @@ class EnvironmentFilter:
         self.cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self.fill_prog = ctx.compute_shader(shader_source("env_to_cube.comp"))
         self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
-        self.sh_prog = ctx.compute_shader(shader_source("sh_project.comp", sh9_defines()))
-        self.reduce_prog = ctx.compute_shader(shader_source("sh_reduce.comp", sh9_defines()))
+        self.sh_prog = self.reduce_prog = None  # the SH9 programs, compiled on the first project_sh
         u, v = direction_to_uv(cubemap.texel_directions(base_size))
         uv = np.stack([u, v], axis=-1).reshape(6 * base_size, base_size, 2).astype("f4")
         self.texel_uv = ctx.texture((base_size, 6 * base_size), 2, uv.tobytes(), dtype="f4")
@@ -108,6 +111,10 @@ class EnvironmentFilter:
             self.ctx.memory_barrier()
 
     def project_sh(self, face_size: int, window=(1.0, 1.0, 1.0)) -> None:
+        """The paper's SH9 of the level of `face_size` and its matrices M, into `sh_buffer`."""
+        if self.sh_prog is None:  # compiled only for scenes whose diffuse technique is SH9
+            self.sh_prog = self.ctx.compute_shader(shader_source("sh_project.comp", sh9_defines()))
+            self.reduce_prog = self.ctx.compute_shader(shader_source("sh_reduce.comp", sh9_defines()))
         level = levels.level_of(face_size, self.base_size)
         block = max(1, min(4, face_size // 8))  # texels per invocation along each axis
         tiles = groups(face_size, 8 * block)
@@ -135,6 +142,18 @@ class EnvironmentFilter:
         self.reduce_prog.run(1, 1, 1)
         self.ctx.memory_barrier()
 
+    # -- the glossy lookup (glossy_box.glsl reads env_cube) ----------------------------------
+    def lookup_defines(self) -> tuple[str, ...]:
+        return ()
+
+    def bind_lookup(self, prog: moderngl.Program, unit: int) -> None:
+        self.cube.use(unit)
+        _set(prog, "env_cube", unit)
+
+    def meta(self) -> dict:
+        return {"environment_store": {"parameterization": "cube", "face_size": self.base_size, "layers": 6,
+                                      "texels": 6 * self.base_size ** 2}}
+
     # -- read-backs (tests, meta) -----------------------------------------------------------
     def read_sh(self) -> tuple[np.ndarray, np.ndarray]:
         """(coeffs (9, 3), M (3, 4, 4)) as last computed on the GPU."""
@@ -161,7 +180,8 @@ class EnvironmentFilter:
     def release(self) -> None:
         for obj in [self.env_tex, self.texel_uv, self.cube, self.fill_prog, self.down_prog, self.sh_prog,
                     self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
-            obj.release()
+            if obj is not None:
+                obj.release()
 
 
 def sh9_defines() -> tuple[str, ...]:
@@ -187,8 +207,11 @@ class SceneDrawer:
         self.width, self.height = cam.width, cam.height
         effects = tuple(f"HAS_{e.upper()}" for e in ("diffuse", "glossy", "fresnel") if e in scene.effects)
         extra = tuple(d for t in self.techniques for d in t.defines())
-        self.defines = effects + extra + materials.glsl_defines()
-        self.prog = ctx.program(vertex_shader=shader_source("shade.vert"),
+        # realtime.reflection = "per_vertex": the mirror direction is computed in shade.vert and interpolated
+        per_vertex = scene.realtime.reflection == "per_vertex" and "glossy" in scene.effects
+        reflection = ("REFLECTION_PER_VERTEX",) if per_vertex else ()
+        self.defines = effects + extra + reflection + materials.glsl_defines()
+        self.prog = ctx.program(vertex_shader=shader_source("shade.vert", reflection),
                                 fragment_shader=shader_source("shade.frag", self.defines))
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))
@@ -246,6 +269,7 @@ class SceneDrawer:
             _set(p, "kd", m.kd)
             _set(p, "ks", m.ks)
             _set(p, "f0", m.f0)
+            _set(p, "two_sided", int(m.two_sided))
             for t in self.techniques:
                 t.bind_object(p, obj)
             vao.render(moderngl.TRIANGLES)

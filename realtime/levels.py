@@ -34,6 +34,13 @@ def mcguire_offset(face_size: int, exponent: float) -> float:
     return max(0.0, math.log2(face_size * math.sqrt(3.0)) - 0.5 * math.log2(exponent + 1.0))
 
 
+def glossy_lod_unclamped(face_size: int, base_size: int, lod_bias: float, mapping: str, exponent: float) -> float:
+    """level(s) + offset(N) + bias before `glossy_lod` clamps it to the cube's chain: a 2D
+    parameterization adds its own solid-angle offset first and clamps to its own chain (env_map.glsl)."""
+    offset = mcguire_offset(face_size, exponent) if mapping == "mcguire" else 0.0
+    return level_of(face_size, base_size) + offset + lod_bias
+
+
 def glossy_lod(face_size: int, base_size: int, lod_bias: float, mapping: str, exponent: float) -> float:
     """The LOD of the paper's glossy lookup, clamped to the chain: level(s) + offset(N) + bias, offset 0
     for the paper's mapping and `mcguire_offset` for McGuire's. The only place this formula lives: the

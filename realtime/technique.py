@@ -62,7 +62,8 @@ class Technique:
     #: the scene keys only this technique reads ("realtime.table." covers a whole table): a sweep
     #: varies them only where the technique runs (experiments/sweep.py)
     reads: ClassVar[tuple[str, ...]] = ()
-    #: of those, the axes worth sweeping, with values that show the trade-off (sweep --technique-axes)
+    #: of those, the axes worth sweeping, with values that show the trade-off (`iblcheck sweep
+    #: --technique-axes` sweeps them, with the technique choices of the scene's effects)
     axes: ClassVar[dict[str, tuple]] = {}
 
     def __init__(self, frame: Frame) -> None:
@@ -92,6 +93,12 @@ class Technique:
 
     def release(self) -> None:  # noqa: B027 (optional hook)
         pass
+
+
+def set_uniform(prog: moderngl.Program, name: str, value) -> None:
+    """Set a uniform if the compiled program kept it (unused ones are optimised away)."""
+    if name in prog:
+        prog[name] = value
 
 
 def technique_class(effect: str, value: str) -> type[Technique]:
@@ -144,6 +151,10 @@ def describe(scene) -> dict[str, Any]:
     rt = scene.realtime
     out: dict[str, Any] = {"parameterization": rt.parameterization, "face_size": rt.face_size,
                            "base_size": rt.base_size}
+    if rt.parameterization == "sphere_map":
+        capture = rt.sphere_map.capture
+        out["sphere_map"] = {"capture": capture if isinstance(capture, str) else list(capture)}
+    out["reflection"] = rt.reflection
     for key, value in chosen(scene).items():
         out[key] = value
     if rt.diffuse == "sh":

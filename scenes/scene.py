@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import copy
 import math
+import os
 import tomllib
 from dataclasses import asdict, dataclass, field
 from functools import cached_property, lru_cache
@@ -25,10 +26,17 @@ import numpy as np
 from . import environments, materials, meshes
 from .camera import Camera
 from .errors import InputError, SceneError
+from .files import input_problem, short_repr
 
 BUILTIN_PREFIX = "builtin:"
 MATERIAL_TYPES = materials.NAMES
 EFFECTS = ("diffuse", "glossy", "fresnel", "occlusion", "interreflection")
+#: a scene file larger than this is refused before it is parsed
+MAX_SCENE_BYTES = 16 << 20
+#: tables and arrays nest at most this deep (a scene needs 4: objects, an object, its material, kd)
+MAX_DEPTH = 16
+#: the most pixels an image may have (8192 x 8192): both renderers hold several float32 copies of it
+MAX_PIXELS = 1 << 26
 
 
 # --------------------------------------------------------------------------- dataclasses
@@ -41,6 +49,7 @@ class Material:
     ks: tuple[float, float, float] = (1.0, 1.0, 1.0)
     exponent: float = 100.0
     f0: float = 0.04
+    two_sided: bool = False  # see scenes/materials.py: one-sided by default
 
     @property
     def has_diffuse(self) -> bool:
@@ -93,7 +102,13 @@ class Environment:
         else:
             st = Path(self.map).stat()
             arr = _read_map(self.map, st.st_mtime_ns, st.st_size, sanitize)
-        return arr if self.scale == 1.0 else (arr * np.float32(self.scale)).astype(np.float32)
+        if self.scale != 1.0:
+            with np.errstate(over="ignore"):
+                arr = (arr * np.float32(self.scale)).astype(np.float32)
+        from . import envmap
+
+        envmap.check_peak(arr, self.map, self.scale)
+        return arr
 
 
 @lru_cache(maxsize=8)
@@ -152,6 +167,12 @@ class Vct:
 
 
 @dataclass(frozen=True)
+class SphereMap:
+    """[realtime.sphere_map]: the view the sphere map is made for (realtime/parameterizations.py)."""
+    capture: str | tuple[float, float, float] = "camera"  # "camera" (remade for the render view) or a view direction
+
+
+@dataclass(frozen=True)
 class Realtime:
     base_size: int = 256
     face_size: int | str = 64
@@ -168,11 +189,13 @@ class Realtime:
     occlusion: str = "none"
     interreflection: str = "none"
     parameterization: str = "cube"
+    reflection: str = "per_pixel"  # or "per_vertex": the mirror direction interpolated from the vertices
     prefiltered: Prefiltered = field(default_factory=Prefiltered)
     irradiance_map: IrradianceMap = field(default_factory=IrradianceMap)
     lights: Lights = field(default_factory=Lights)
     prt: Prt = field(default_factory=Prt)
     vct: Vct = field(default_factory=Vct)
+    sphere_map: SphereMap = field(default_factory=SphereMap)
 
 
 @dataclass(frozen=True)
@@ -300,6 +323,20 @@ def _vec3(lo: float = -1e6, hi: float = 1e6):
     return check, text
 
 
+def _view_direction():
+    text = 'one of "camera" or a view direction: a list of 3 finite numbers, not all zero'
+
+    def check(v):
+        if v == "camera":
+            return v
+        vec = _vec3()[0](v)
+        if vec is None or not any(vec):
+            return None
+        return vec
+
+    return check, text
+
+
 def _bool():
     return (lambda v: v if isinstance(v, bool) else None), "true or false"
 
@@ -319,7 +356,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "origin": _vec3(),
         "target": _vec3(),
         "up": _vec3(),
-        "fov_deg": _num(0, 180, lo_open=True, hi_open=True),
+        "fov_deg": _num(1e-3, 180, hi_open=True),  # below 1e-3 degrees float32 projections break down
         "width": _num(1, 16384, integer=True),
         "height": _num(1, 16384, integer=True),
     },
@@ -336,6 +373,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "ks": _vec3(0.0, 1.0),
         "exponent": _num(0, 1e7),
         "f0": _num(0, 1),
+        "two_sided": _bool(),
     },
     "tonemap": {
         "key": _num(0, 100, lo_open=True),
@@ -357,6 +395,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "occlusion": _enum("none", "shadow_maps", "prt", "vct"),
         "interreflection": _enum("none", "prt", "vct"),
         "parameterization": _enum("cube", "dual_paraboloid", "sphere_map"),
+        "reflection": _enum("per_pixel", "per_vertex"),
     },
     "realtime.prefiltered": {
         "samples": _num(1, 65536, integer=True),
@@ -365,6 +404,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "realtime.irradiance_map": {
         "size": _pow2(1, 256),
         "source_size": _pow2(1, 256),
+    },
+    "realtime.sphere_map": {
+        "capture": _view_direction(),
     },
     "realtime.lights": {
         "count": _num(1, 65536, integer=True),
@@ -413,9 +455,24 @@ def load(path_or_builtin: str | Path) -> Scene:
             raise SceneError(f"{text_path}: unknown builtin scene; choose one of {', '.join(builtin_names())}")
         return _parse_text(res.read_text(), text_path, Path.cwd(), name)
     path = Path(text_path)
-    if not path.is_file():
-        raise SceneError(f"{path}: scene file not found")
-    return _parse_text(path.read_text(), str(path), path.resolve().parent, path.stem)
+    return _parse_text(_read_scene_text(path), str(path), path.resolve().parent, path.stem)
+
+
+def _read_scene_text(path: Path) -> str:
+    """The text of a scene file: a readable regular file of UTF-8 text, not too large."""
+    problem = input_problem(path)
+    if problem:
+        raise SceneError(f"{path}: scene file {problem}")
+    size = path.stat().st_size
+    if size > MAX_SCENE_BYTES:
+        raise SceneError(f"{path}: scene file of {size} bytes; a scene file is at most {MAX_SCENE_BYTES} bytes")
+    data = path.read_bytes()
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{path}: not UTF-8 text (byte 0x{data[exc.start]:02x} at offset {exc.start}); "
+                         "TOML files are UTF-8") from None
+    return text.removeprefix("\ufeff")  # a byte-order mark is no TOML statement
 
 
 def builtin_names() -> list[str]:
@@ -428,14 +485,32 @@ def _parse_text(text: str, where: str, base_dir: Path, stem: str) -> Scene:
         tree = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{where}: malformed TOML: {exc}") from None
+    except RecursionError:
+        raise SceneError(f"{where}: arrays or tables nested too deeply to read (a scene nests at most "
+                         f"{MAX_DEPTH} levels)") from None
+    _check_depth(tree, where)
     return from_dict(tree, where, base_dir, name_default=stem)
+
+
+def _check_depth(tree: Any, where: str) -> None:
+    """Refuse values nested deeper than MAX_DEPTH, naming the key where they start (no recursion)."""
+    stack = [(tree, "", 0)]
+    while stack:
+        node, key, depth = stack.pop()
+        if depth > MAX_DEPTH:
+            raise SceneError(f"{where}: {key or 'the file'}: arrays or tables nested more than {MAX_DEPTH} levels deep")
+        items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+        for k, v in items:
+            if isinstance(v, (dict, list)):
+                stack.append((v, f"{key}.{k}" if key and isinstance(k, str) else f"{key}[{k}]" if key else str(k),
+                              depth + 1))
 
 
 def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene") -> Scene:
     """Validate a raw TOML tree. Relative paths resolve against `base_dir`."""
 
     def fail(key: str, value: Any, allowed: str) -> SceneError:
-        return SceneError(f"{where}: {key} = {value!r}: must be {allowed}")
+        return SceneError(f"{where}: {key} = {short_repr(value)}: must be {allowed}")
 
     if not isinstance(tree, dict):
         raise SceneError(f"{where}: the scene must be a TOML table")
@@ -450,7 +525,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         if table is None:
             return {}
         if not isinstance(table, dict):
-            raise SceneError(f"{where}: {prefix} must be a table, got {table!r}")
+            raise SceneError(f"{where}: {prefix} must be a table, got {short_repr(table)}")
         out = {}
         keys = allowed_keys if allowed_keys is not None else set(schema)
         for key, value in table.items():
@@ -479,22 +554,26 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         try:
             resolved = environments.resolve_params(env_map[len(BUILTIN_PREFIX):], params)
         except SceneError as exc:
-            raise SceneError(f"{where}: environment.map = {env_map!r}: {exc}") from None
+            raise SceneError(f"{where}: environment.map = {short_repr(env_map)}: {exc}") from None
         env["params"] = tuple(sorted(resolved.items()))
     else:
         if params:
             raise SceneError(f"{where}: environment.params: only builtin environments take parameters")
         p = Path(env_map)
         p = p if p.is_absolute() else (base_dir / p)
-        if not p.is_file():
-            raise SceneError(f"{where}: environment.map = {env_map!r}: file not found ({p})")
         if p.suffix.lower() not in (".exr", ".hdr", ".pfm"):
             raise fail("environment.map", env_map, "a builtin name or an .exr, .hdr or .pfm file")
+        problem = input_problem(p)
+        if problem:
+            raise SceneError(f"{where}: environment.map = {short_repr(env_map)}: {problem} ({p})")
         env["map"] = str(p)
     environment = Environment(**env)
 
     # camera
     cam = Camera(**section("camera", tree.get("camera", {})))
+    if cam.width * cam.height > MAX_PIXELS:
+        raise SceneError(f"{where}: camera.width x camera.height = {cam.width} x {cam.height} = "
+                         f"{cam.width * cam.height} pixels: must be at most {MAX_PIXELS} (8192 x 8192)")
     view = np.subtract(cam.target, cam.origin)
     if np.linalg.norm(view) < 1e-9:
         raise SceneError(f"{where}: camera.target = {list(cam.target)}: must differ from camera.origin")
@@ -520,13 +599,19 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         defaults = dict(materials.TYPES[mat_type].defaults)
         obj["material"] = Material(**{**defaults, **mat})
         shape = obj.get("shape", "sphere")
+        if shape in meshes.BUILTIN_MESHES and meshes.builtin_triangles(shape, obj.get("resolution")) > \
+                meshes.MAX_TRIANGLES:
+            raise SceneError(f"{where}: {prefix}.resolution = {obj.get('resolution')}: a {shape} of "
+                             f"{meshes.builtin_triangles(shape, obj.get('resolution'))} triangles; must give at "
+                             f"most {meshes.MAX_TRIANGLES}")
         if shape not in meshes.BUILTIN_MESHES:
             p = Path(shape)
             p = p if p.is_absolute() else base_dir / p
             if p.suffix.lower() not in (".obj", ".ply"):
                 raise fail(f"{prefix}.shape", shape, f"one of {', '.join(meshes.BUILTIN_MESHES)} or an .obj/.ply path")
-            if not p.is_file():
-                raise SceneError(f"{where}: {prefix}.shape = {shape!r}: file not found ({p})")
+            problem = input_problem(p)
+            if problem:
+                raise SceneError(f"{where}: {prefix}.shape = {short_repr(shape)}: {problem} ({p})")
             obj["shape"] = str(p)
         objects.append(SceneObject(**obj))
 
@@ -556,14 +641,13 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
 
 #: the per-technique tables of [realtime] and their dataclasses
 TECHNIQUE_TABLES = {"prefiltered": Prefiltered, "irradiance_map": IrradianceMap, "lights": Lights, "prt": Prt,
-                    "vct": Vct}
+                    "vct": Vct, "sphere_map": SphereMap}
 #: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
 #: ignored. An issue that adds a technique removes its entry here (tests/realtime/test_techniques.py
 #: checks that every other choice has a module).
 NOT_IMPLEMENTED = frozenset({("diffuse", "lights"), ("diffuse", "prt"), ("glossy", "lights"),
                              ("occlusion", "shadow_maps"), ("occlusion", "prt"), ("occlusion", "vct"),
-                             ("interreflection", "prt"), ("interreflection", "vct"),
-                             ("parameterization", "dual_paraboloid"), ("parameterization", "sphere_map")})
+                             ("interreflection", "prt"), ("interreflection", "vct")})
 
 
 def table_users(rt: Realtime) -> dict[str, str | None]:
@@ -575,13 +659,14 @@ def table_users(rt: Realtime) -> dict[str, str | None]:
             "irradiance_map": first(("diffuse", "irradiance_map")),
             "lights": first(("diffuse", "lights"), ("glossy", "lights")),
             "prt": first(("diffuse", "prt"), ("occlusion", "prt"), ("interreflection", "prt")),
-            "vct": first(("occlusion", "vct"), ("interreflection", "vct"))}
+            "vct": first(("occlusion", "vct"), ("interreflection", "vct")),
+            "sphere_map": first(("parameterization", "sphere_map"))}
 
 
 def _realtime(raw: Any, where: str, section) -> Realtime:
     """[realtime] and its technique tables: values, then the tables' use, then combinations."""
     if not isinstance(raw, dict):
-        raise SceneError(f"{where}: realtime must be a table, got {raw!r}")
+        raise SceneError(f"{where}: realtime must be a table, got {short_repr(raw)}")
     flat = {k: v for k, v in raw.items() if k not in TECHNIQUE_TABLES}
     tables = {}
     for name, cls in TECHNIQUE_TABLES.items():
@@ -600,8 +685,8 @@ def _realtime(raw: Any, where: str, section) -> Realtime:
     for key in ("diffuse", "glossy", "occlusion", "interreflection", "parameterization"):
         if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
             raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
-    m = rt.irradiance_map
-    if m.source_size > rt.base_size:
+    m = rt.irradiance_map  # its default source (32) must not stop a small base_size the map does not read
+    if rt.diffuse == "irradiance_map" and m.source_size > rt.base_size:
         raise SceneError(f"{where}: realtime.irradiance_map.source_size = {m.source_size}: must be at most "
                          f"realtime.base_size = {rt.base_size}")
     return rt
@@ -611,7 +696,8 @@ def _table_hint(name: str) -> str:
     return {"prefiltered": 'realtime.glossy = "prefiltered"', "irradiance_map": 'realtime.diffuse = "irradiance_map"',
             "lights": 'realtime.diffuse or realtime.glossy = "lights"',
             "prt": 'realtime.diffuse, occlusion or interreflection = "prt"',
-            "vct": 'realtime.occlusion or interreflection = "vct"'}[name]
+            "vct": 'realtime.occlusion or interreflection = "vct"',
+            "sphere_map": 'realtime.parameterization = "sphere_map"'}[name]
 
 
 def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
@@ -628,6 +714,12 @@ def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
     if rt.interreflection == "prt" and (rt.diffuse != "prt" or rt.occlusion != "prt"):
         raise bad("interreflection", "occlusion", "interreflected transfer includes its shadowing: set "
                   'realtime.diffuse = "prt" and realtime.occlusion = "prt"')
+    # the lobe-prefiltered chain and the irradiance map convolve the cube map: cube only
+    if rt.parameterization != "cube":
+        for key, value in (("glossy", "prefiltered"), ("diffuse", "irradiance_map")):
+            if getattr(rt, key) == value:
+                raise bad(key, "parameterization", f'realtime.{key} = "{value}" reads the cube map; set '
+                          'realtime.parameterization = "cube" or choose another technique')
     # the paper's knobs of one technique, set explicitly while another technique is chosen
     if "sh_order" in given and rt.sh_order != 2 and rt.diffuse != "sh":
         raise bad("sh_order", "diffuse", 'the SH order applies to realtime.diffuse = "sh" only')
@@ -647,13 +739,16 @@ def parse_literal(text: str) -> Any:
     anything that is not a literal is kept as a string."""
     try:
         return tomllib.loads(f"v = {text}")["v"]
-    except tomllib.TOMLDecodeError:
+    except (tomllib.TOMLDecodeError, RecursionError):
         return text
 
 
 def _cwd_path(value: Any) -> Any:
     if isinstance(value, str) and not value.startswith(BUILTIN_PREFIX) and value not in meshes.BUILTIN_MESHES:
-        return str(Path(value).resolve())
+        try:
+            return os.path.abspath(value)  # never Path.resolve(): it raises on a symbolic link loop
+        except ValueError:  # a NUL character: refused with the key when the scene is validated
+            return value
     return value
 
 
@@ -668,7 +763,8 @@ def _set_dotted(tree: dict, parts: list[str], value: Any, key: str, where: str) 
             targets = objs if sel == "*" else None
             if targets is None:
                 if not sel.isdigit() or int(sel) >= len(objs):
-                    raise SceneError(f"{where}: override {key}: no object {sel!r} (the scene has {len(objs)})")
+                    raise SceneError(f"{where}: override {key}: no object {short_repr(sel)} "
+                                     f"(the scene has {len(objs)})")
                 targets = [objs[int(sel)]]
             for t in targets:
                 _set_dotted(t, parts[i + 2:], value, key, where)

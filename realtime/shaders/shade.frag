@@ -6,11 +6,15 @@
 // scenes/materials.py.
 in vec3 v_position;
 in vec3 v_normal;
+#ifdef REFLECTION_PER_VERTEX
+in vec3 v_reflect;  // realtime.reflection = "per_vertex": the mirror direction of each vertex, interpolated
+#endif
 uniform vec3 camera_position;
 uniform int material_type;  // MATERIAL_DIFFUSE, MATERIAL_PHONG, MATERIAL_BLEND
 uniform vec3 kd;
 uniform vec3 ks;
 uniform float f0;
+uniform int two_sided;  // material.two_sided (scenes/materials.py): 0 one-sided, 1 two-sided
 out vec4 frag;
 const float PI = 3.14159265358979323846;
 
@@ -27,6 +31,16 @@ void main() {
     float len = length(n);
     n = len > 0.0 ? n / len : vec3(0.0, 1.0, 0.0);
     vec3 v = normalize(camera_position - v_position);
+    // Back faces and silhouettes, one rule for both renderers (scenes/materials.py): where the shading
+    // normal faces away from the viewer, a one-sided material is black (its reference BSDF is zero for
+    // n.v <= 0) and a two-sided one is shaded with the normal flipped (Mitsuba's twosided).
+    if (dot(n, v) <= 0.0) {
+        if (two_sided == 0) {
+            frag = vec4(0.0, 0.0, 0.0, 1.0);
+            return;
+        }
+        n = -n;  // reflect(-v, n) does not depend on the normal's sign: per-vertex reflection holds too
+    }
     float n_dot_v = clamp(dot(n, v), 0.0, 1.0);
     vec3 Ld = vec3(0.0);
     vec3 Lg = vec3(0.0);
@@ -34,7 +48,11 @@ void main() {
     Ld = kd / PI * max(diffuse_irradiance(n), vec3(0.0));
 #endif
 #ifdef HAS_GLOSSY
+#ifdef REFLECTION_PER_VERTEX
+    Lg = ks * glossy_radiance(normalize(v_reflect));
+#else
     Lg = ks * glossy_radiance(reflect(-v, n));
+#endif
 #endif
     vec3 color = material_type == MATERIAL_DIFFUSE ? Ld : Lg;
 #ifdef HAS_FRESNEL

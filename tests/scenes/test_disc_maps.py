@@ -1,0 +1,199 @@
+"""The 2D environment parameterizations' numpy halves (issue 13): dual paraboloid and sphere map.
+
+Independent expectations: round trips; the paraboloid's directions from the mirror reflection of its
+axis about the surface f = 1/2 - r^2/2 (Heidrich & Seidel); the sphere map's (s, t) from OpenGL's
+GL_SPHERE_MAP formula; exact texel solid angles against 4 pi, against a closed-form antiderivative
+(the differential-area-to-rectangle view factor) and a Monte Carlo histogram of uniform directions;
+the analytic max/min solid-angle ratios (cube 3 sqrt 3, dual paraboloid 4, sphere map 1); the stretch
+(conformal vs equal-area); the capture frame against the camera's own view matrix.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from scenes import cubemap, discmap, paraboloid, spheremap
+from scenes.camera import Camera
+
+MAPS = [paraboloid, spheremap]
+
+
+def unit(rng, n: int) -> np.ndarray:
+    d = rng.normal(size=(n, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("mod", MAPS, ids=lambda m: m.NAME)
+def test_direction_position_direction_round_trip(mod, rng):
+    d = unit(rng, 20000)
+    d[:4] = [[0, 0, 1], [0, 0, -1], [1, 0, 0], [0, 1e-9, -1]]  # axes and the sphere map's singular direction
+    layer, x, y = mod.direction_to_position(d)
+    assert np.all(x * x + y * y <= 1.0 + 1e-12)
+    back = mod.position_to_direction(x, y, layer)
+    np.testing.assert_allclose(back, d, atol=2e-8 if mod is spheremap else 1e-14)
+    ok = np.abs(d[:, 2] + 1.0) > 1e-6  # away from the sphere map's singular rim (a whole circle there)
+    np.testing.assert_allclose(back[ok], d[ok], atol=1e-12)
+
+
+@pytest.mark.parametrize("mod", MAPS, ids=lambda m: m.NAME)
+@pytest.mark.parametrize("size", [1, 2, 8, 64])
+def test_texel_direction_texel_round_trip(mod, size):
+    d = mod.texel_directions(size)
+    assert d.shape == (mod.LAYERS, size, size, 3)
+    np.testing.assert_allclose(np.linalg.norm(d, axis=-1), 1.0, atol=1e-14)
+    inside = mod.texel_solid_angles(size) > 0
+    x, y = discmap.texel_positions(size)
+    centre_in = np.broadcast_to(x * x + y * y < 1.0, inside.shape)
+    layer, row, col = mod.direction_to_texel(d[centre_in], size)
+    want_layer, want_row, want_col = np.nonzero(centre_in)
+    np.testing.assert_array_equal(layer, want_layer)
+    np.testing.assert_array_equal(row, want_row)
+    np.testing.assert_array_equal(col, want_col)
+    assert np.all(inside[centre_in])
+
+
+def test_cube_direction_texel_round_trip():
+    size = 16
+    face, s, t = cubemap.direction_to_face(cubemap.texel_directions(size).reshape(-1, 3))
+    f, j, i = np.unravel_index(np.arange(6 * size * size), (6, size, size))
+    np.testing.assert_array_equal(face, f)
+    np.testing.assert_allclose(s, (i + 0.5) / size, atol=1e-14)
+    np.testing.assert_allclose(t, (j + 0.5) / size, atol=1e-14)
+
+
+def test_paraboloid_directions_are_the_mirror_reflection_of_its_axis(rng):
+    # f(x, y) = 1/2 - (x^2 + y^2) / 2 has normal (x, y, 1) / |.|; a ray along the axis (0, 0, -1) hitting it
+    # leaves along reflect(-axis, n): that is the direction stored at (x, y) on the front map
+    x, y = rng.uniform(-1.5, 1.5, size=(2, 5000))
+    n = np.stack([x, y, np.ones_like(x)], -1)
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    incoming = np.array([0.0, 0.0, -1.0])
+    reflected = incoming - 2.0 * (n @ incoming)[:, None] * n
+    np.testing.assert_allclose(paraboloid.position_to_direction(x, y, 0), reflected, atol=1e-14)
+    back = reflected * [1.0, 1.0, -1.0]
+    np.testing.assert_allclose(paraboloid.position_to_direction(x, y, 1), back, atol=1e-14)
+
+
+def test_sphere_map_is_opengl_sphere_map(rng):
+    r = unit(rng, 5000)
+    p = 2.0 * np.sqrt(r[:, 0] ** 2 + r[:, 1] ** 2 + (r[:, 2] + 1.0) ** 2)  # the GL spec's m = 2 p
+    s_gl, t_gl = r[:, 0] / p + 0.5, r[:, 1] / p + 0.5
+    _, x, y = spheremap.direction_to_position(r)
+    s, t = discmap.position_to_texture(x, y)
+    np.testing.assert_allclose(s, s_gl, atol=1e-15)
+    np.testing.assert_allclose(t, t_gl, atol=1e-15)
+
+
+@pytest.mark.parametrize("mod", [cubemap, *MAPS], ids=lambda m: getattr(m, "NAME", "cube"))
+@pytest.mark.parametrize("size", [1, 2, 3, 16, 128])
+def test_texel_solid_angles_sum_to_the_sphere(mod, size):
+    w = mod.texel_solid_angles(size)
+    total = 6 * w.sum() if mod is cubemap else w.sum()
+    assert total == pytest.approx(4 * math.pi, rel=1e-12)
+    assert np.all(w >= -1e-15)
+
+
+@pytest.mark.parametrize("size", [4, 16, 33])
+def test_paraboloid_inner_texels_match_the_view_factor_antiderivative(size):
+    # integral of 4 / (1 + x^2 + y^2)^2 over [0, X] x [0, Y] = 2 [X/sqrt(1+X^2) atan(Y/sqrt(1+X^2)) + (X <-> Y)]
+    # (the view factor from a differential area to a parallel rectangle at unit distance, times 2 pi)
+    def anti(x, y):
+        a, b = np.sqrt(1 + x * x), np.sqrt(1 + y * y)
+        return 2.0 * (x / a * np.arctan(y / a) + y / b * np.arctan(x / b))
+
+    e = np.linspace(-1.0, 1.0, size + 1)
+    x0, y0 = np.meshgrid(e[:-1], e[:-1])
+    x1, y1 = np.meshgrid(e[1:], e[1:])
+    exact = anti(x1, y1) - anti(x0, y1) - anti(x1, y0) + anti(x0, y0)
+    full = discmap.full_texels(size)
+    assert full.sum() > 0
+    np.testing.assert_allclose(paraboloid.texel_solid_angles(size)[0][full], exact[full], rtol=1e-12)
+    np.testing.assert_allclose(spheremap.texel_solid_angles(size)[0][full], 4 * (2.0 / size) ** 2, rtol=1e-12)
+
+
+@pytest.mark.parametrize("mod", MAPS, ids=lambda m: m.NAME)
+def test_texel_solid_angles_match_a_monte_carlo_histogram(mod):
+    # uniform directions binned by the forward mapping: each texel's share of 4 pi, within 4.5 sigma
+    size, n = 8, 2_000_000
+    rng = np.random.default_rng(7)
+    layer, row, col = mod.direction_to_texel(unit(rng, n), size)
+    counts = np.zeros((mod.LAYERS, size, size))
+    np.add.at(counts, (layer, row, col), 1.0)
+    w = mod.texel_solid_angles(size)
+    estimate = counts * 4 * math.pi / n
+    sigma = np.sqrt(w * (4 * math.pi - w) / n)
+    assert np.all(np.abs(estimate - w) <= 4.5 * sigma + 1e-12)
+    assert np.all(counts[w == 0] == 0)  # texels outside the disc receive no direction
+
+
+def ratio(w: np.ndarray, full: np.ndarray) -> float:
+    sel = np.broadcast_to(full, w.shape)
+    return float(w[sel].max() / w[sel].min())
+
+
+def test_solid_angle_ratios_tend_to_the_analytic_values():
+    # cube: face centre / corner -> 3 sqrt 3; dual paraboloid: centre / rim -> 4; sphere map: equal area, 1
+    sizes = (64, 256, 1024)
+    cube = [ratio(cubemap.texel_solid_angles(s), np.ones((s, s), bool)) for s in sizes]
+    para = [ratio(paraboloid.texel_solid_angles(s), discmap.full_texels(s)) for s in sizes]
+    sphere = [ratio(spheremap.texel_solid_angles(s), discmap.full_texels(s)) for s in sizes]
+    assert cube == sorted(cube) and para == sorted(para)
+    assert cube[-1] == pytest.approx(3 * math.sqrt(3), rel=5e-3)
+    assert para[-1] == pytest.approx(4.0, rel=5e-3)
+    assert sphere == pytest.approx([1.0] * 3, abs=1e-9)
+
+
+def test_paraboloid_is_conformal_and_the_sphere_map_equal_area(rng):
+    rho = np.sqrt(rng.uniform(0, 0.98, 2000))
+    phi = rng.uniform(0, 2 * math.pi, 2000)
+    x, y = rho * np.cos(phi), rho * np.sin(phi)
+    big, small = discmap.jacobian_singular_values(paraboloid.position_to_direction, x, y)
+    np.testing.assert_allclose(big / small, 1.0, atol=1e-5)  # no stretch
+    np.testing.assert_allclose(big * small, paraboloid.density(x, y), rtol=1e-5)
+    np.testing.assert_allclose(big * small, 4.0 / (1.0 + rho**2) ** 2, rtol=1e-5)
+    big, small = discmap.jacobian_singular_values(spheremap.position_to_direction, x, y, h=1e-7)
+    np.testing.assert_allclose(big * small, 4.0, rtol=1e-4)  # equal area: dOmega / dA = 4
+    np.testing.assert_allclose(big / small, 1.0 / (1.0 - rho**2), rtol=1e-3)
+    # the stretch grows without bound at the rim
+    b, s = discmap.jacobian_singular_values(spheremap.position_to_direction, np.array([0.9999]), np.array([0.0]),
+                                            h=1e-9)
+    assert b[0] / s[0] > 1000
+
+
+@pytest.mark.parametrize("face", [1, 8, 16, 32, 64, 128, 256])
+def test_budgets_round_to_the_nearest_power_of_two(face):
+    for mod in MAPS:
+        exact = face * math.sqrt(6 / mod.LAYERS)  # LAYERS m^2 = 6 s^2
+        best = min((2**k for k in range(14)), key=lambda m: abs(math.log2(m) - math.log2(exact)))
+        assert mod.map_size(face) == best
+    assert paraboloid.texel_count(paraboloid.map_size(face)) == 8 * face * face
+    assert spheremap.texel_count(spheremap.map_size(face)) == 4 * face * face
+
+
+def test_capture_frame_is_the_cameras_eye_space():
+    cam = Camera(origin=(1.0, 2.0, 3.0), target=(0.2, -0.1, 0.4), up=(0.0, 1.0, 0.0))
+    frame = spheremap.capture_frame(np.subtract(cam.target, cam.origin), cam.up)
+    np.testing.assert_allclose(frame, cam.view_matrix()[:3, :3], atol=1e-15)
+    # the map's centre is the direction back at the viewer, its rim the direction straight ahead
+    _, x, y = spheremap.direction_to_position(frame @ -np.subtract(cam.target, cam.origin))
+    assert abs(x) < 1e-15 and abs(y) < 1e-15
+    _, x, y = spheremap.direction_to_position(frame @ np.subtract(cam.target, cam.origin))
+    assert math.hypot(x, y) == pytest.approx(1.0)
+    # an up parallel to the view still gives a rotation
+    f = spheremap.capture_frame([0.0, -1.0, 0.0], [0.0, 1.0, 0.0])
+    np.testing.assert_allclose(f @ f.T, np.eye(3), atol=1e-15)
+    np.testing.assert_allclose(f[2], [0.0, 1.0, 0.0], atol=1e-15)
+
+
+def test_sphere_map_fill_is_continuous_across_the_rim():
+    # just outside the disc, a texel holds the direction just past -z on the same great circle
+    eps = 1e-6
+    for phi in np.linspace(0, 2 * math.pi, 7):
+        c, s = math.cos(phi), math.sin(phi)
+        inside = spheremap.position_to_direction((1 - eps) * c, (1 - eps) * s)
+        outside = spheremap.position_to_direction((1 + eps) * c, (1 + eps) * s)
+        assert np.linalg.norm(inside - outside) < 1e-2
+        assert outside[2] < -0.99
