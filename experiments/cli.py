@@ -1,37 +1,70 @@
 """The `iblcheck` command line (design.md section 6).
 
-Exit codes: 0 success, 1 a gate failed, 2 bad input or usage (one `error: ...` line on stderr,
-no traceback), 3 the machine lacks something (a line saying what to install).
+Exit codes (issue 11: each keeps one meaning, so a crashed CI gate never reads as a failed one):
+
+    0    success
+    1    a gate failed (only ever that)
+    2    bad input, usage or an unusable output path: one `error: ...` line on stderr, no traceback
+    3    the machine lacks something (OpenGL, a Mitsuba variant, memory): a line saying what
+    4    an internal error (a bug): one `error: internal error ...` line; `--debug` adds the traceback
+    130  interrupted (Ctrl-C): a sweep or paper run resumes where it stopped when rerun
+
+Every line printed about user input goes through experiments/text.py (no control characters,
+bounded length).
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import traceback
 import warnings
 
 from scenes import InputError, MissingCapability
 
 from .inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
+from .text import one_line
 
-EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING = 0, 1, 2, 3
+EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
 
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's own errors: one line, exit 2
-        print(f"error: {message}", file=sys.stderr)
+        print(f"error: {one_line(message)}", file=sys.stderr)
         raise SystemExit(EXIT_BAD_INPUT)
 
 
+def threshold(key: str):
+    """An argparse type for a gate threshold: a finite number in the range of the scene's [gate] key."""
+    from scenes.scene import SCHEMA
+
+    check, allowed = SCHEMA["gate"][key]
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or check(value) is None:
+            raise argparse.ArgumentTypeError(f"{text!r}: must be {allowed}")
+        return value
+
+    return parse
+
+
 def build_parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="iblcheck", description="Validate real-time environment lighting against path-traced references.")
+    p = _Parser(prog="iblcheck", description="Validate real-time environment lighting against path-traced references.",
+                epilog="exit codes: 0 success, 1 a gate failed, 2 bad input or output path, 3 the machine lacks "
+                       "something, 4 internal error (--debug shows the traceback), 130 interrupted")
+    p.add_argument("--debug", action="store_true", help="on an internal error, print the traceback (any position)")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     r = sub.add_parser("render", help="render one scene with one renderer, write EXR + PNG")
     r.add_argument("scene", help="scene file or builtin:NAME")
     r.add_argument("--renderer", choices=["realtime", "reference", "quadrature"], default="realtime")
     r.add_argument("--set", action="append", metavar="K=V", help="override a scene key (repeatable)")
-    r.add_argument("-o", "--out", default=None, help="output .exr path (a .png is written beside it)")
+    r.add_argument("-o", "--out", default=None, help="output .exr path (a .png is written beside it); default: "
+                   "SLUG-RENDERER.exr in the working directory, SLUG the scene name's file-safe form")
     r.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
     r.set_defaults(func=_cmd_render)
 
@@ -53,15 +86,18 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--axis", action="append", metavar="KEY=V1,V2", default=[],
                    help="sweep any scene key, e.g. --axis realtime.glossy=box,prefiltered (repeatable); a "
                         "technique's own keys vary only where that technique runs")
+    s.add_argument("--technique-axes", action="store_true",
+                   help="also sweep every technique of each scene's effects with the parameters it declares worth "
+                        "sweeping (SH order and window, irradiance-map sizes, LOD bias and mapping, samples)")
     s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
     s.add_argument("--out", default="reports/sweep")
     s.set_defaults(func=_cmd_sweep)
 
     g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
     g.add_argument("scenes", nargs="+")
-    g.add_argument("--min-psnr", type=float)
-    g.add_argument("--min-ssim", type=float)
-    g.add_argument("--max-flip", type=float)
+    g.add_argument("--min-psnr", type=threshold("min_psnr"))
+    g.add_argument("--min-ssim", type=threshold("min_ssim"))
+    g.add_argument("--max-flip", type=threshold("max_flip"))
     g.add_argument("--junit", help="write JUnit XML here (one test case per scene)")
     g.add_argument("--set", action="append", metavar="K=V")
     g.set_defaults(func=_cmd_gate)
@@ -91,8 +127,8 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set, args.sanitize)
     result = comparison.run(scene).metrics
     if result["pixels"] == 0:
-        print(f"warning: {scene.name}: no pixel is covered in both images (is the object outside the view?); "
-              "the image metrics are undefined (null)", file=sys.stderr)
+        print(f"warning: {one_line(scene.name)}: no pixel is covered in both images (is the object outside the "
+              "view?); the image metrics are undefined (null)", file=sys.stderr)
     print(json.dumps(result, allow_nan=False) if args.json else comparison.format_table([result]))
     return EXIT_OK
 
@@ -107,34 +143,40 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                       exponents=parse_list(args.exponents, float, "--exponents"),
                       f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
                       lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),
-                      extra=[parse_axis(a) for a in args.axis])
+                      extra=[parse_axis(a) for a in args.axis], technique_axes=args.technique_axes)
     rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set))
-    print(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}")
+    print(one_line(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}"))
     return EXIT_OK
 
 
 def _cmd_gate(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from . import gate
+    from . import gate, outputs
 
     cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
-    results = gate.run(args.scenes, cli, parse_sets(args.set))
-    print(gate.format_table(results))
-    if args.junit:
-        gate.write_junit(Path(args.junit), results)
+    with outputs.Outputs() as plan:
+        loaded = gate.load(args.scenes, cli, parse_sets(args.set))
+        junit = plan.file(args.junit, "--junit") if args.junit else None
+        results = gate.compare_all(loaded)
+        print(gate.format_table(results))
+        if junit:
+            gate.write_junit(junit, results)
     return EXIT_OK if all(r.passed for r in results) else EXIT_GATE_FAILED
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from . import report, sweep
+    from . import outputs, report, sweep
+    from .results import folder_lock
 
     folder = Path(args.dir)
     if not (folder / sweep.RESULTS).is_file():
         raise UsageError(f"{folder / sweep.RESULTS}: not found (run `iblcheck sweep --out {folder}` first)")
-    print(report.build(folder))
+    with outputs.Outputs() as plan, folder_lock(plan.folder(folder, "report")):
+        for name in ("index.html", "summary.md"):
+            plan.file(folder / name, "report")
+        plan.folder(folder / "figures", "report")
+        print(one_line(report.build(folder)))
     return EXIT_OK
 
 
@@ -143,7 +185,7 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 
     from . import paper
 
-    print(paper.run(Path(args.out), quick=args.quick))
+    print(one_line(paper.run(Path(args.out), quick=args.quick)))
     return EXIT_OK
 
 
@@ -167,22 +209,55 @@ def join_negative_values(argv: list[str]) -> list[str]:
     return out
 
 
+def _error(text: str) -> None:
+    print(f"error: {one_line(text)}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
     parser = build_parser()
-    args = parser.parse_args(join_negative_values(list(sys.argv[1:] if argv is None else argv)))
+    try:
+        args = parser.parse_args(join_negative_values(argv))
+    except SystemExit as exc:  # argparse: --help (0) or a usage error (2, already printed)
+        return int(exc.code or 0)
     warnings.simplefilter("default")
-    warnings.showwarning = lambda msg, cat, *a, **k: print(f"warning: {msg}", file=sys.stderr)
+    warnings.showwarning = lambda msg, cat, *a, **k: print(f"warning: {one_line(msg)}", file=sys.stderr)
+    return run_command(args, debug)
+
+
+def run_command(args: argparse.Namespace, debug: bool = False) -> int:
+    """Run a parsed command, mapping every way it can end to its exit code (see the module docstring)."""
     try:
         return int(args.func(args) or 0)
     except InputError as exc:
-        print(f"error: {exc}", file=sys.stderr)
+        _error(str(exc))
         return EXIT_BAD_INPUT
     except MissingCapability as exc:
-        print(f"error: {exc}" + (f"; {exc.hint}" if exc.hint else ""), file=sys.stderr)
+        _error(f"{exc}" + (f"; {exc.hint}" if exc.hint else ""))
+        return EXIT_MISSING
+    except MemoryError:
+        _error("out of memory; use smaller images (camera.width, camera.height), maps or meshes")
         return EXIT_MISSING
     except KeyboardInterrupt:
-        print("error: interrupted", file=sys.stderr)
-        return 130
+        _error("interrupted; rerun the same command to resume (finished rows are kept)")
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        if exc.filename is None:
+            return _internal(exc, debug)
+        _error(f"{exc.filename}: {exc.strerror or exc}")
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug: its own exit code, never 1 (a failed gate)
+        return _internal(exc, debug)
+
+
+def _internal(exc: BaseException, debug: bool) -> int:
+    if debug:
+        traceback.print_exception(exc, file=sys.stderr)
+    _error(f"internal error ({type(exc).__name__}: {exc})" + ("" if debug else "; rerun with --debug for the "
+                                                               "traceback and report it"))
+    return EXIT_INTERNAL
 
 
 if __name__ == "__main__":

@@ -18,6 +18,7 @@ import numpy as np
 from scenes.render import Render
 
 from . import metrics
+from .text import one_line
 
 #: a real-time score within this many dB of the noise floor is "at the noise floor"
 AT_FLOOR_DB = 1.0
@@ -117,7 +118,7 @@ def format_table(rows: list[dict]) -> str:
 
     cells = [[h for h, _, _ in cols]]
     for row in rows:
-        cells.append(["-" if get(row, k) is None else f.format(get(row, k)) for _, k, f in cols])
+        cells.append(["-" if get(row, k) is None else one_line(f.format(get(row, k)), 80) for _, k, f in cols])
     widths = [max(len(r[i]) for r in cells) for i in range(len(cols))]
     lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
              for r in cells]

@@ -12,10 +12,17 @@ from . import metrics
 
 
 def save_png(path: Path, rgb01: np.ndarray) -> None:
+    """An 8-bit PNG, written atomically (experiments/outputs.py)."""
+    import io
+
     import matplotlib.image
 
+    from .outputs import write_bytes
+
     path.parent.mkdir(parents=True, exist_ok=True)
-    matplotlib.image.imsave(str(path), to_uint8(np.clip(rgb01, 0, 1)))
+    buf = io.BytesIO()
+    matplotlib.image.imsave(buf, to_uint8(np.clip(rgb01, 0, 1)), format="png")
+    write_bytes(path, buf.getvalue())
 
 
 def save_heatmap(path: Path, values: np.ndarray, mask: np.ndarray, label: str, vmax: float | None = None,

@@ -10,6 +10,9 @@
     E7 ladder     accuracy against time across real-time techniques (SH orders, irradiance maps,
                   box vs lobe-prefiltered chains) with the path tracer's spp ladder on the same axes
                   (experiments/ladder.py).
+    E9 storage    environment parameterizations at equal texel budgets: cube, dual paraboloid, sphere
+                  map; sampling rates, where the error goes, the sphere map's view dependence,
+                  per-vertex against per-pixel reflection (experiments/parameterizations.py).
     E6 stability  every hard case (bright suns and SH windows, extreme exponents and sizes, broken
                   inputs, odd geometry, determinism) with what happened (experiments/stability.py).
 
@@ -29,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 from . import metrics, plots
-from .report import Section
-from .results import RESULTS, ResultRow, store_in
+from .report import Section, figure, md_table, paragraph, table
+from .results import RESULTS, ResultRow, folder_lock, store_in
 from .sweep import row_id, run_row
 
 
@@ -55,22 +58,6 @@ FULL = Settings(size=192, spp=1024, frames=30, e1_faces=(8, 16, 32, 64, 128, 256
 TITLE = "iblcheck paper suite: Gu et al. 2006 against Mitsuba 3"
 EXPONENTS = (10.0, 50.0, 200.0, 1000.0)
 F0S = (0.02, 0.04, 0.5, 1.0)
-
-
-def md_table(header: list[str], rows: list[list]) -> str:
-    out = ["| " + " | ".join(header) + " |", "|" + "|".join("---" for _ in header) + "|"]
-    out += ["| " + " | ".join(str(c) for c in r) + " |" for r in rows]
-    return "\n".join(out)
-
-
-def html_table(header: list[str], rows: list[list]) -> str:
-    head = "".join(f"<th>{h}</th>" for h in header)
-    body = "".join("<tr>" + "".join(f"<td>{c}</td>" for c in r) + "</tr>" for r in rows)
-    return f'<table class="sortable"><thead><tr>{head}</tr></thead><tbody>{body}</tbody></table>'
-
-
-def figure_html(path: str, alt: str) -> str:
-    return f'<div class="figs"><img src="{path}" alt="{alt}"></div>'
 
 
 def f2(x) -> str:
@@ -127,7 +114,7 @@ class Suite:
         t0 = time.perf_counter()
         exact = math.pi * quadrature.irradiance(quadrature.cell_grid(env, quadrature.DIFFUSE_WIDTH), normals)
         conv_ms = (time.perf_counter() - t0) * 1e3 / len(normals)
-        rows, table = [], []
+        rows, rows_out = [], []
         for s in self.s.e1_faces:
             r = self.row(spec, {"realtime.face_size": s}, "E1")
             _, test = self.image_of(r)
@@ -136,7 +123,7 @@ class Suite:
             mask = metrics.common_mask(test.mask, brute.mask)
             vs_brute = metrics.psnr(metrics.display(scene, test.rgb), metrics.display(scene, brute.rgb), mask)
             rows.append((r, sh_err, vs_brute))
-            table.append([s, f2(r.psnr), f2(r.noise_floor_psnr), f2(vs_brute), f"{100 * sh_err:.3f}%",
+            rows_out.append([s, f2(r.psnr), f2(r.noise_floor_psnr), f2(vs_brute), f"{100 * sh_err:.3f}%",
                           f2(r.realtime_ms["filter"]), f2(r.realtime_ms["draw"])])
         header = ["face size", "PSNR vs reference", "noise floor", "PSNR vs brute force", "SH9 irradiance rel. RMS",
                   "filter ms", "draw ms"]
@@ -160,9 +147,9 @@ class Suite:
         note = (f"Brute-force irradiance convolution (quadrature over a {quadrature.DIFFUSE_WIDTH}-wide cell grid, "
                 f"numpy on the CPU): {brute_s:.1f} s for the whole {self.s.size}x{self.s.size} image, "
                 f"{conv_ms:.3f} ms per normal; SH9 replaces it by a 4x4 matrix per channel.")
-        md = md_table(header, table) + "\n\n" + note
-        return Section("E1 diffuse: SH9 irradiance by face size", html_table(header, table) + f"<p>{note}</p>"
-                       + figure_html("figures/e1_diffuse.png", "E1"), md, ["figures/e1_diffuse.png"])
+        md = md_table(header, rows_out) + "\n\n" + note
+        return Section("E1 diffuse: SH9 irradiance by face size", [table(header, rows_out), paragraph(note),
+                       figure("figures/e1_diffuse.png", "E1")], md, ["figures/e1_diffuse.png"])
 
     @staticmethod
     def image_of(row: ResultRow):
@@ -180,7 +167,7 @@ class Suite:
         from realtime import levels
 
         spec = "builtin:sphere-phong"
-        table, best = [], {}
+        rows_out, best = [], {}
         for n in EXPONENTS:
             for s in self.s.e2_faces:
                 rows = [self.row(spec, {"objects.*.material.exponent": n, "realtime.face_size": s,
@@ -192,7 +179,7 @@ class Suite:
                 formula = levels.mcguire_offset(s, n)
                 ends = (min(self.s.e2_biases), max(self.s.e2_biases))
                 edge = " (edge of the range)" if top.lod_bias in ends else ""
-                table.append([f"{n:g}", s, f"{top.lod_bias:g}{edge}", f2(top.psnr), f"{formula:.2f}",
+                rows_out.append([f"{n:g}", s, f"{top.lod_bias:g}{edge}", f2(top.psnr), f"{formula:.2f}",
                               f2(mc.psnr), f2(top.noise_floor_psnr)])
         header = ["N", "face size", "best bias (paper mapping)", "PSNR at best", "McGuire offset",
                   "PSNR with McGuire", "noise floor"]
@@ -210,9 +197,9 @@ class Suite:
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7, title="face")
         plots.save(fig, self.out / "figures/e2_glossy.png")
-        md = md_table(header, table)
-        return Section("E2 glossy: best LOD bias per exponent and face size", html_table(header, table)
-                       + figure_html("figures/e2_glossy.png", "E2"), md, ["figures/e2_glossy.png"])
+        md = md_table(header, rows_out)
+        return Section("E2 glossy: best LOD bias per exponent and face size",
+                       [table(header, rows_out), figure("figures/e2_glossy.png", "E2")], md, ["figures/e2_glossy.png"])
 
     # ----------------------------------------------------------------------------- E3
     def e3(self) -> Section:
@@ -222,7 +209,7 @@ class Suite:
         spec = "builtin:sphere-blend"
         plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
-        table = []
+        rows_out = []
         edges = np.linspace(0.0, 1.0, 11)
         for f0 in F0S:
             # glossy LOD from McGuire's mapping, so that the error left is the blend's, not a bias choice
@@ -241,7 +228,7 @@ class Suite:
                     rms.append(float(np.sqrt(np.mean(err[sel] ** 2))))
             ax.plot(centres, rms, "o-", label=f"f0 = {f0:g}")
             grazing = rms[0] if centres and centres[0] > 70 else None
-            table.append([f"{f0:g}", f2(r.psnr), f"{r.ssim:.4f}", "-" if grazing is None else f"{grazing:.4f}",
+            rows_out.append([f"{f0:g}", f2(r.psnr), f"{r.ssim:.4f}", "-" if grazing is None else f"{grazing:.4f}",
                           f"{rms[-1]:.4f}" if rms else "-"])
         ax.set_xlabel("viewing angle from the normal (degrees)")
         ax.set_ylabel("RMS display error")
@@ -252,9 +239,9 @@ class Suite:
         header = ["f0", "PSNR", "SSIM", "RMS error at grazing (n.v < 0.1)", "RMS error facing (n.v > 0.9)"]
         note = ("sphere-blend (N = 100, face size 64) with the glossy LOD from McGuire's mapping; RMS of the "
                 "display-space error in bands of n.v, plotted against the viewing angle acos(n.v).")
-        md = md_table(header, table) + "\n\n" + note
-        return Section("E3 Fresnel blends: error against viewing angle", html_table(header, table) + f"<p>{note}</p>"
-                       + figure_html("figures/e3_fresnel.png", "E3"), md, ["figures/e3_fresnel.png"])
+        md = md_table(header, rows_out) + "\n\n" + note
+        return Section("E3 Fresnel blends: error against viewing angle", [table(header, rows_out), paragraph(note),
+                       figure("figures/e3_fresnel.png", "E3")], md, ["figures/e3_fresnel.png"])
 
     # ----------------------------------------------------------------------------- E4
     def e4(self) -> Section:
@@ -266,7 +253,7 @@ class Suite:
         sets = [("diffuse (SH9)", "builtin:sphere-diffuse", False), ("glossy (phong)", "builtin:sphere-phong", False),
                 ("diffuse + glossy + Fresnel (blend)", "builtin:sphere-blend", False),
                 ("blend + tone mapping", "builtin:sphere-blend", True)]
-        table, series = [], {}
+        rows_out, series = [], {}
         for label, spec, tm in sets:
             for s in self.s.e4_faces:
                 sc = scenes.load(spec).with_overrides({**self.base(), "realtime.face_size": s,
@@ -282,7 +269,7 @@ class Suite:
                                       frames=max(self.s.frames, 20))["display"]
                     total += disp
                 series.setdefault(label, []).append((s, total))
-                table.append([label, s, f2(r.timings["filter"]), f2(r.timings["draw"]), f2(disp), f2(total)])
+                rows_out.append([label, s, f2(r.timings["filter"]), f2(r.timings["draw"]), f2(disp), f2(total)])
                 self.progress()
         plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.4, 4.0))
@@ -302,8 +289,8 @@ class Suite:
         note = (f"{self.s.size}x{self.s.size} pixels, base {sc.realtime.base_size}, median of "
                 f"{max(self.s.frames, 20)} frames after warm-up, the environment turned 1 degree per frame; "
                 f"GL: {renderer_name()}.")
-        return Section("E4 frame time by effect set and face size", html_table(header, table) + f"<p>{note}</p>"
-                       + figure_html("figures/e4_frame_time.png", "E4"), md_table(header, table) + "\n\n" + note,
+        return Section("E4 frame time by effect set and face size", [table(header, rows_out), paragraph(note),
+                       figure("figures/e4_frame_time.png", "E4")], md_table(header, rows_out) + "\n\n" + note,
                        ["figures/e4_frame_time.png"])
 
     # ----------------------------------------------------------------------------- E5
@@ -314,7 +301,7 @@ class Suite:
         spec = "builtin:sphere-blend"
         scene = scenes.load(spec).with_overrides(self.base())
         render(scene, spp=4, use_cache=False)  # compile the kernels outside the timings
-        table, pts = [], []
+        rows_out, pts = [], []
         for spp in self.s.e5_spps:
             a = render(scene, spp=spp, seed=0, use_cache=False)
             b = render(scene, spp=spp, seed=second_seed(0), use_cache=False)
@@ -322,7 +309,7 @@ class Suite:
             floor = metrics.noise_floor_psnr(metrics.display(scene, a.rgb), metrics.display(scene, b.rgb), mask)
             secs = float(np.median([a.timings["render"], b.timings["render"]]) / 1e3)
             pts.append((spp, floor, secs))
-            table.append([spp, f2(floor), f"{secs:.2f}"])
+            rows_out.append([spp, f2(floor), f"{secs:.2f}"])
             self.progress()
         plt = plots.pyplot()
         fig, ax = plt.subplots(figsize=(6.0, 3.8))
@@ -341,42 +328,51 @@ class Suite:
         header = ["spp", "noise floor PSNR (dB)", "render s (median of 2)"]
         note = (f"sphere-blend at {self.s.size}x{self.s.size}, Mitsuba {variant_name()}, uncached. Every 4x spp "
                 "should add 6.02 dB (Monte Carlo noise falls as 1/sqrt(spp)).")
-        return Section("E5 reference convergence", html_table(header, table) + f"<p>{note}</p>"
-                       + figure_html("figures/e5_convergence.png", "E5"), md_table(header, table) + "\n\n" + note,
+        return Section("E5 reference convergence", [table(header, rows_out), paragraph(note),
+                       figure("figures/e5_convergence.png", "E5")], md_table(header, rows_out) + "\n\n" + note,
                        ["figures/e5_convergence.png"])
 
 
 def e6_section(spp: int, progress) -> Section:
-    from html import escape
-
     from . import stability
 
     rows = stability.run(spp=spp, progress=progress)
-    header = ["case", "expected", "what happened"]
-    cells = [[r["case"], r["expected"], stability.outcome_text(r)] for r in rows]
+    header = ["class", "case", "expected", "what happened"]
+    cells = [[r.get("class", ""), r["case"], r["expected"], stability.outcome_text(r)] for r in rows]
     bad = sum(not r["ok"] for r in rows)
-    note = (f"{len(rows)} hard cases, {bad} unexpected. The same cases are asserted in tests/hard/. Sun cases: a "
-            "diffuse sphere under the sky seen from below the horizon; min E is SH9 irradiance over the sphere.")
-    html = html_table(header, [[escape(str(c)) for c in row] for row in cells]) + f"<p>{note}</p>"
-    md = md_table(header, [[str(c).replace("|", "/") for c in row] for row in cells]) + "\n\n" + note
-    return Section("E6 stability: hard cases", html, md)
+    counts = stability.counts(rows)
+    note = (f"{len(rows)} hard cases, {bad} unexpected ({counts}). The same cases are asserted in tests/hard/. "
+            "Sun cases: a diffuse sphere under the sky seen from below the horizon; min E is SH9 irradiance over "
+            "the sphere.")
+    md = md_table(header, cells) + "\n\n" + note
+    return Section("E6 stability: hard cases", [table(header, cells), paragraph(note)], md)
 
 
 def count_steps(s: Settings, quick: bool) -> int:
-    from . import ladder
+    from . import ladder, stability
+    from . import parameterizations as e9
 
     return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
-            + 4 * len(s.e4_faces) + len(s.e5_spps) + 6 + ladder.count_steps(ladder.QUICK if quick else ladder.FULL))
+            + 4 * len(s.e4_faces) + len(s.e5_spps) + stability.count_parts()
+            + ladder.count_steps(ladder.QUICK if quick else ladder.FULL) + e9.count_steps(quick))
 
 
 def run(out: Path, quick: bool = False) -> Path:
-    """Run the suite into `out`; returns the path of index.html."""
-    from rich import progress as rp
-
-    from . import report
+    """Run the suite into `out` (checked and locked first: one writer per folder); returns the path of
+    index.html."""
+    from . import outputs
 
     settings = QUICK if quick else FULL
-    out.mkdir(parents=True, exist_ok=True)
+    with outputs.Outputs() as plan, folder_lock(plan.folder(out, "--out")):
+        plan.folder(out / "figures", "--out")
+        return _run(out, settings, quick)
+
+
+def _run(out: Path, settings: Settings, quick: bool) -> Path:
+    from rich import progress as rp
+
+    from . import outputs, report
+
     t0 = time.perf_counter()
     timings = {}
     columns = [rp.TextColumn("[bold]paper"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
@@ -396,6 +392,12 @@ def run(out: Path, quick: bool = False) -> Path:
 
         sections.append(ladder.run(suite, quick, lambda: progress.advance(task)))
         timings["E7"] = time.perf_counter() - t
+        progress.update(task, description="E9")
+        t = time.perf_counter()
+        from . import parameterizations as e9
+
+        sections.append(e9.run(suite, quick, lambda: progress.advance(task)))
+        timings["E9"] = time.perf_counter() - t
         progress.update(task, description="E6")
         t = time.perf_counter()
         sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))
@@ -406,7 +408,7 @@ def run(out: Path, quick: bool = False) -> Path:
                 f"{settings.spp} spp; this run took {total / 60:.1f} min (" +
                 ", ".join(f"{k} {v:.0f} s" for k, v in timings.items()) + f"), reusing {suite.reused} of "
                 f"{len(suite.used)} compared configurations already in {RESULTS}")
-    (out / report.SECTIONS).write_text(json.dumps({
+    outputs.write_text(out / report.SECTIONS, json.dumps({
         "title": TITLE, "subtitle": subtitle, "quick": quick, "seconds": timings, "total_s": total,
         "sections": [vars(s) for s in sections]}, indent=1))
     return report.build(out, title=TITLE, sections=sections, subtitle=subtitle)

@@ -8,6 +8,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .results import ResultRow
+
 
 def pyplot():
     """matplotlib.pyplot on the headless Agg backend."""
@@ -17,6 +19,14 @@ def pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def label_text(text: object, limit: int = 60) -> str:
+    """User text (a scene name) as a plot label: control characters shown as escapes and `$` escaped,
+    so a name is never parsed as mathtext (an unknown command there stops the whole figure)."""
+    from .text import one_line
+
+    return one_line(text, limit).replace("$", r"\$")
 
 
 def save(fig, path: Path, dpi: int = 90) -> None:
@@ -38,7 +48,7 @@ def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
     return np.asarray(front, dtype=int)
 
 
-def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
+def accuracy_vs_bias(rows: list[ResultRow], path: Path) -> bool:
     """PSNR and SSIM against LOD bias, one line per face size, one column per glossy scene."""
     glossy = [r for r in rows if "glossy" in r.effects and r.psnr is not None and r.techniques.get("glossy") == "box"]
 
@@ -59,7 +69,7 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
         for r in glossy:
             if panel(r) == key and r.lod_mapping == "paper":
                 series[r.face_size].append((r.lod_bias, r.psnr, r.ssim))
-        name = f"{key[0]} N={key[1]:g}" + (f" f0={key[2]:g}" if key[2] is not None else "")
+        name = label_text(key[0]) + f" N={key[1]:g}" + (f" f0={key[2]:g}" if key[2] is not None else "")
         for s in sorted(series):
             pts = sorted(series[s])
             b = [p[0] for p in pts]
@@ -76,7 +86,7 @@ def accuracy_vs_bias(rows: list[dict], path: Path) -> bool:
     return True
 
 
-def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
+def accuracy_vs_time(rows: list[ResultRow], path: Path) -> bool:
     """PSNR against total frame time, every configuration, the Pareto front marked."""
     pts = [r for r in rows if r.psnr is not None and r.realtime_ms.get("total")]
     if not pts:
@@ -89,7 +99,7 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     for name in sorted({r.scene for r in pts}):  # fronts per scene: different scenes do not compete
         sel = np.flatnonzero([r.scene == name for r in pts])
-        dots = ax.scatter(t[sel], p[sel], s=16, alpha=0.5, label=name)
+        dots = ax.scatter(t[sel], p[sel], s=16, alpha=0.5, label=label_text(name))
         front = sel[pareto_front(t[sel], p[sel])]
         ax.plot(t[front], p[front], color=dots.get_facecolor()[0][:3], lw=1.4, drawstyle="steps-post")
     ax.plot([], [], color="k", lw=1.4, label="Pareto front (per scene)")
@@ -105,7 +115,7 @@ def accuracy_vs_time(rows: list[dict], path: Path) -> bool:
     return True
 
 
-def cost_vs_size(rows: list[dict], path: Path) -> bool:
+def cost_vs_size(rows: list[ResultRow], path: Path) -> bool:
     """Median filter and draw time against face size, log axes."""
     by = defaultdict(lambda: {"filter": [], "draw": []})
     for r in rows:

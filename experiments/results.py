@@ -11,13 +11,24 @@ of the techniques plus `precompute`).
 
 Store (`ResultStore`): `results.jsonl`, one JSON object per line, appended and fsynced as rows
 finish. Reading drops a half-written last line (a killed run) so that a rerun resumes without losing
-or duplicating a row; a complete line that does not parse is an error naming the file and the line.
+or duplicating a row; a complete line that does not parse, or whose values have the wrong types
+(checked against the field annotations), is an error naming the file and the line.
+
+A row's `id` is a hash of the content that determines it (experiments/sweep.py: the resolved scene,
+the map's and meshes' bytes), so an edited scene or map never resumes into old numbers.
+
+`folder_lock(folder)`: one writer per results folder at a time (fcntl on the folder itself); a
+second sweep, paper run or report into the same folder is refused.
 """
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import types
+import typing
+from collections.abc import Iterator
 from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
@@ -29,7 +40,7 @@ RESULTS = "results.jsonl"
 
 @dataclass(frozen=True)
 class ResultRow:
-    id: str  # hash of (spec, overrides): the row's identity in the store
+    id: str  # hash of the content that determines the row (sweep.content_id): its identity in the store
     spec: str  # scene file or builtin:NAME
     overrides: dict[str, Any]
     scene: str  # the scene's name
@@ -85,7 +96,9 @@ class ResultRow:
 
     @property
     def technique_label(self) -> str:
-        """A short name of the techniques that matter to the scene: 'sh2', 'irradiance_map 32', ..."""
+        """A readable name of the techniques the scene's effects use, with their main parameter:
+        'SH order 2', 'irradiance map 32 from 32', 'box bias 1 McGuire', 'prefiltered 64 spl', joined
+        by ', ' for a scene with both effects (tables and report labels)."""
         t, fx, parts = self.techniques, set(self.effects), []
         if "diffuse" in fx:
             d = t.get("diffuse")
@@ -121,10 +134,40 @@ class ResultRow:
         if missing:
             raise ValueError(f"missing keys {', '.join(missing[:5])}")
         kwargs = {k: v for k, v in data.items() if k in known}
+        hints = typing.get_type_hints(cls)
+        for name, value in kwargs.items():
+            if not _matches(value, hints[name]):
+                raise ValueError(f"{name} = {str(value)[:40]!r} is not {_type_name(hints[name])}")
+        if not kwargs["materials"] or not all(isinstance(m.get("type"), str) for m in kwargs["materials"]):
+            raise ValueError("materials must list every object's material with its type")
         extra = {k: v for k, v in data.items() if k not in known}
         if extra:
             kwargs["extra"] = {**kwargs.get("extra", {}), **extra}
         return cls(**kwargs)
+
+
+def _matches(value: Any, tp: Any) -> bool:
+    """Whether a JSON value has the annotated type (containers are checked item by item)."""
+    origin, args = typing.get_origin(tp), typing.get_args(tp)
+    if tp is Any:
+        return True
+    if origin in (typing.Union, types.UnionType):
+        return any(_matches(value, a) for a in args)
+    if tp is type(None):
+        return value is None
+    if origin is dict:
+        return isinstance(value, dict) and all(isinstance(k, str) and _matches(v, args[1]) for k, v in value.items())
+    if origin is list:
+        return isinstance(value, list) and all(_matches(v, args[0]) for v in value)
+    if tp is float:
+        return isinstance(value, (int, float)) and not isinstance(value, bool)
+    if tp is int:
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, tp)
+
+
+def _type_name(tp: Any) -> str:
+    return str(tp).replace("typing.", "")
 
 
 class ResultStore:
@@ -147,9 +190,13 @@ class ResultStore:
             if not line.strip():
                 continue
             try:
-                rows.append(ResultRow.from_dict(json.loads(line)))
-            except (ValueError, TypeError, AttributeError) as exc:
-                raise InputError(f"{self.path}: line {number} is not a result row ({str(exc)[:120]}); "
+                data = json.loads(line)
+                if not isinstance(data, dict):
+                    raise ValueError(f"a JSON {type(data).__name__}, not an object")
+                rows.append(ResultRow.from_dict(data))
+            except (ValueError, TypeError, RecursionError) as exc:
+                why = "nested too deeply" if isinstance(exc, RecursionError) else _reason(exc)
+                raise InputError(f"{self.path}: line {number} is not a result row ({why}); "
                                  "remove the line or the file to rerun those configurations") from None
         return rows
 
@@ -162,11 +209,41 @@ class ResultStore:
             os.fsync(f.fileno())
 
     def rewrite(self, rows: list[ResultRow]) -> None:
-        """Replace the file's rows atomically (temporary file + rename)."""
-        tmp = self.path.with_suffix(".tmp")
-        tmp.write_text("".join(json.dumps(r.to_dict(), allow_nan=False, sort_keys=True) + "\n" for r in rows))
-        tmp.replace(self.path)
+        """Replace the file's rows atomically (temporary file + rename; no temporary file is left on failure)."""
+        from scenes.files import write_bytes
+
+        text = "".join(json.dumps(r.to_dict(), allow_nan=False, sort_keys=True) + "\n" for r in rows)
+        write_bytes(self.path, text.encode("utf-8"))
+
+
+def _reason(exc: Exception) -> str:
+    """A short reason for a bad line, without Python's own wording for JSON errors."""
+    if isinstance(exc, json.JSONDecodeError):
+        return f"not JSON: {exc.msg.lower()} at column {exc.colno}"
+    return str(exc)[:160]
 
 
 def store_in(folder: Path) -> ResultStore:
     return ResultStore(Path(folder) / RESULTS)
+
+
+class FolderBusy(InputError):
+    """Another iblcheck process is writing the same results folder."""
+
+
+@contextlib.contextmanager
+def folder_lock(folder: Path) -> Iterator[Path]:
+    """Hold an exclusive lock on a results folder while writing it; FolderBusy when another process
+    holds it. The lock is on the folder itself (no lock file is left behind) and ends with the process."""
+    import fcntl
+
+    fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderBusy(f"{folder}: another iblcheck process is writing this folder; wait for it to finish "
+                             "or choose another --out") from None
+        yield Path(folder)
+    finally:
+        os.close(fd)

@@ -1,8 +1,10 @@
 """Experiment E6, stability: every hard case run once, with what happened.
 
-Each case returns a row: the case, what is expected, and the outcome observed (value ranges, the
-error message, the SH window chosen). A case whose outcome breaks its expectation is marked
-"UNEXPECTED" in the table; the same cases are asserted in tests/hard/.
+Each case returns a row: its class, the case, what is expected, and the outcome observed (value
+ranges, the error message, the SH window chosen). A case whose outcome breaks its expectation is
+marked "UNEXPECTED" in the table; the same cases are asserted in tests/hard/. The hostile-input
+classes of issue 11 (escaping, output paths, exit codes, silent misreads, back faces, stale sweeps)
+are in experiments/stability_hostile.py.
 """
 
 from __future__ import annotations
@@ -182,17 +184,48 @@ class Cases:
                  "outcome": f"identical: {same_rt}", "ok": same_rt}]
 
 
+#: the class of each of Cases' parts in the E6 table
+CLASSES = {"sun_windows": "bright suns", "exponents": "exponents", "sizes": "sizes", "inputs": "environment maps",
+           "geometry": "geometry", "determinism": "determinism"}
+
+
+def parts(cases: Cases, hostile) -> list[tuple[str, Callable[[], list[dict]]]]:
+    """(class, part) of every E6 case group, the hostile-input classes (issue 11) last."""
+    own = [(CLASSES[name], getattr(cases, name)) for name in CLASSES]
+    return own + [("", part) for part in hostile.parts()]
+
+
+def count_parts() -> int:
+    return len(CLASSES) + 6
+
+
 def run(spp: int = 64, progress: Callable[[], None] | None = None) -> list[dict]:
-    cases = Cases(spp)
+    from .stability_hostile import HostileCases
+
+    cases, hostile = Cases(spp), HostileCases(spp)
     rows = []
-    for part in (cases.sun_windows, cases.exponents, cases.sizes, cases.inputs, cases.geometry, cases.determinism):
-        rows += part()
-        if progress:
-            progress()
-    for r in rows:  # the temporary folder's name says nothing
-        r["outcome"] = r["outcome"].replace(str(cases.tmp) + "/", "")
-    shutil.rmtree(cases.tmp, ignore_errors=True)
+    try:
+        for cls, part in parts(cases, hostile):
+            rows += [{"class": cls, **r} for r in part()]
+            if progress:
+                progress()
+    finally:
+        for folder in (cases.tmp, hostile.tmp):
+            shutil.rmtree(folder, ignore_errors=True)
+    for r in rows:  # the temporary folders' names say nothing
+        for folder in (cases.tmp, hostile.tmp):
+            r["outcome"] = r["outcome"].replace(str(folder) + "/", "").replace(str(folder), ".")
     return rows
+
+
+def counts(rows: list[dict]) -> str:
+    """'class: n cases (k unexpected)' for every class, in order."""
+    out: dict[str, list[int]] = {}
+    for r in rows:
+        n = out.setdefault(r.get("class", ""), [0, 0])
+        n[0] += 1
+        n[1] += not r["ok"]
+    return "; ".join(f"{c}: {n} cases" + (f" ({bad} unexpected)" if bad else "") for c, (n, bad) in out.items())
 
 
 def outcome_text(row: dict) -> str:

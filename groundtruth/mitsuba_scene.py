@@ -7,7 +7,8 @@
 - Objects: `mi.Mesh` built from the same float32 vertices, normals and indices the real-time side
   draws (never Mitsuba's analytic sphere, whose silhouette differs from a mesh).
 - Materials: `reference.model = "paper"` uses the `iblcheck_paper` plugin (the same reflectance);
-  `"physical"` maps to Mitsuba's own `diffuse` or `roughplastic` (see `physical_material`).
+  `"physical"` maps to Mitsuba's own `diffuse` or `roughplastic` (see `physical_material`). Both are
+  one-sided (black seen from behind the shading normal); `material.two_sided` wraps them in `twosided`.
 - Integrator (design.md section 4): no occlusion -> direct lighting only (`path` with max_depth 2:
   emitter sampling and BSDF sampling with MIS); occlusion -> full path tracing with
   `reference.max_depth`; an explicit `reference.integrator` overrides.
@@ -69,7 +70,10 @@ def physical_material(material) -> dict:
 
 
 def bsdf_dict(scene, material) -> dict:
-    return paper_bsdf.material_dict(material) if scene.reference.model == "paper" else physical_material(material)
+    """The material's BSDF: one-sided, or wrapped in Mitsuba's `twosided` for `material.two_sided`
+    (scenes/materials.py: the real-time shader flips the normal there)."""
+    inner = paper_bsdf.material_dict(material) if scene.reference.model == "paper" else physical_material(material)
+    return {"type": "twosided", "bsdf": inner} if material.two_sided else inner
 
 
 def make_mesh(mi, name: str, mesh, bsdf) -> object:

@@ -6,8 +6,12 @@ light (l). Per unit projected solid angle the BSDF value times cos(theta_o) is
     (1 - F) kd / pi cos_o + F ks (N + 1) / (2 pi) max(r . wo, 0)^N,   0 for cos_o <= 0,
 
 with r = (-wi.x, -wi.y, wi.z) the mirror of v, F = f0 + (1 - f0)(1 - clamp(wi.z, 0, 1))^5 for
-`blend`, F = 0 for `diffuse`, F = 1 for `phong` (the same clamp as the real-time shader, so a
-back-facing shading normal at a silhouette gives F = 1, not NaN).
+`blend`, F = 0 for `diffuse`, F = 1 for `phong` (the same clamp as the real-time shader).
+
+One-sided (scenes/materials.py, issue 11): the value is 0 for cos_i = wi.z <= 0, a viewer behind the
+shading normal (the back of a surface, or a silhouette where the interpolated normal has turned away),
+as Mitsuba's own one-sided BSDFs are and as the real-time shader draws it. `material.two_sided` wraps
+this plugin in Mitsuba's `twosided`, which flips wi and wo there instead (groundtruth/mitsuba_scene.py).
 
 Sampling mixes cosine-weighted hemisphere sampling and sampling of the Phong lobe about r
 (cos alpha = xi^(1 / (N + 1))) with probabilities proportional to the two lobes' weights
@@ -27,7 +31,8 @@ from scenes import materials
 
 PLUGIN_NAME = "iblcheck_paper"
 #: bump when the plugin's math or sampling changes: it is part of the reference cache key
-PLUGIN_VERSION = 3
+#: (4: zero for a viewer behind the shading normal, issue 11)
+PLUGIN_VERSION = 4
 
 _registered = False
 
@@ -106,7 +111,8 @@ def make_class(mi):
 
         def _eval_pdf(self, ctx, si, wo, active):
             cos_o = mi.Frame3f.cos_theta(wo)
-            F = self._fresnel(mi.Frame3f.cos_theta(si.wi))
+            cos_i = mi.Frame3f.cos_theta(si.wi)
+            F = self._fresnel(cos_i)
             lobe = self._lobe(self._mirror(si.wi), wo)
             cos_pdf = dr.maximum(cos_o, 0.0) / math.pi
             value = (1.0 - F) * self.kd * cos_pdf * dr.select(ctx.is_enabled(mi.BSDFFlags.DiffuseReflection, 0),
@@ -114,7 +120,7 @@ def make_class(mi):
             value += F * self.ks * lobe * dr.select(ctx.is_enabled(mi.BSDFFlags.GlossyReflection, 1), 1.0, 0.0)
             p_d = self._prob_diffuse(ctx, F)
             pdf = p_d * cos_pdf + (1.0 - p_d) * lobe
-            above = active & (cos_o > 0)
+            above = active & (cos_o > 0) & (cos_i > 0)  # one-sided: nothing seen from behind the normal
             return dr.select(above, value, 0.0), dr.select(above, pdf, 0.0)
 
         def eval(self, ctx, si, wo, active=True):

@@ -36,7 +36,7 @@ from scenes.directions import TWO_PI, normalize, rotation_y, uv_to_direction
 from scenes.render import Render
 
 from . import raycast
-from .reflectance import lobe_weights, phong_lobe, reflect
+from .reflectance import face_viewer, lobe_weights, phong_lobe, reflect
 
 MIN_WIDTH, MAX_WIDTH = 128, 4096
 DIFFUSE_WIDTH = 128  # max error 2e-4 of the peak against a 512-wide grid on uffizi
@@ -233,8 +233,10 @@ def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> 
     `env` is the (H, W, 3) map; normals and views are in its own (unrotated) frame, views pointing
     from the surface towards the camera.
     """
+    normals, lit = face_viewer(material, normals, views)
     n_dot_v = (normals * views).sum(axis=1)
     wd, wg = lobe_weights(material, n_dot_v)
+    wd, wg = wd * lit, wg * lit  # one-sided: nothing seen from behind the shading normal
     out = np.zeros((len(normals), 3))
     if material.has_diffuse:
         grid = cell_grid(env, DIFFUSE_WIDTH)

@@ -4,8 +4,9 @@
                   0                                                             below the horizon
 
 with r = reflect(-v, n) the mirror direction and Schlick's F = f0 + (1 - f0) (1 - n.v)^5, n.v
-clamped to [0, 1] exactly as the real-time shader does. `diffuse` is the first term alone
-(F = 0), `phong` the second alone (F = 1), `blend` both. The normalised Phong lobe
+clamped to [0, 1] exactly as the real-time shader does. Where n.v <= 0 (the viewer behind the shading
+normal) a one-sided material reflects nothing and a two-sided one uses -n (`face_viewer`).
+`diffuse` is the first term alone (F = 0), `phong` the second alone (F = 1), `blend` both. The normalised Phong lobe
 (N + 1) / (2 pi) cos^N integrates to 1 over the sphere, so a box-filtered mip texel (an
 average) is its real-time stand-in. The Mitsuba plugin (`paper_bsdf.py`) is the same math in drjit.
 """
@@ -52,6 +53,15 @@ def phong_pow(one_minus_cos: np.ndarray, exponent: float) -> np.ndarray:
 def phong_lobe(r_dot_l_one_minus: np.ndarray, exponent: float) -> np.ndarray:
     """The normalised lobe (N + 1) / (2 pi) max(r.l, 0)^N, given 1 - r.l."""
     return (exponent + 1.0) / (2.0 * np.pi) * phong_pow(r_dot_l_one_minus, exponent)
+
+
+def face_viewer(material, normals: np.ndarray, views: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(normals, lit): the back-face rule of scenes/materials.py. Where n.v <= 0 a two-sided material's
+    normal is flipped towards the viewer; a one-sided material is not lit there (lit False)."""
+    behind = np.sum(normals * views, axis=-1) <= 0
+    if getattr(material, "two_sided", False):
+        return np.where(behind[..., None], -normals, normals), np.ones_like(behind)
+    return normals, ~behind
 
 
 def reflect(v: np.ndarray, n: np.ndarray) -> np.ndarray:

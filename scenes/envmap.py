@@ -17,8 +17,13 @@ import numpy as np
 from . import imageio
 from .directions import direction_to_uv, to_environment_frame
 from .errors import EnvMapError
+from .files import input_problem, short_repr
 
 READERS = {".exr": imageio.read_exr, ".hdr": imageio.read_hdr, ".rgbe": imageio.read_hdr, ".pfm": imageio.read_pfm}
+#: the largest radiance a map may hold (after environment.scale): both renderers sum many texels and
+#: samples of it in float32 (Mitsuba's envmap CDF, the film, the SH projection), which overflow near
+#: the float32 maximum; 1e20 leaves them 1e18 of headroom (a sun is 1e5 ... 1e9 times the sky)
+MAX_RADIANCE = 1e20
 
 
 class SanitizedWarning(UserWarning):
@@ -34,9 +39,11 @@ def read(path: str | Path, sanitize: bool = False, max_pixels: int | None = None
     path = Path(path)
     reader = READERS.get(path.suffix.lower())
     if reader is None:
-        raise EnvMapError(f"{path}: unsupported environment format {path.suffix!r} (use .exr, .hdr or .pfm)")
-    if not path.is_file():
-        raise EnvMapError(f"{path}: environment map not found")
+        raise EnvMapError(f"{path}: unsupported environment format {short_repr(path.suffix)} "
+                          "(use .exr, .hdr or .pfm)")
+    problem = input_problem(path)
+    if problem:
+        raise EnvMapError(f"{path}: environment map {problem}")
     rgb = reader(path, max_pixels=max_pixels)
     if rgb.shape[0] < 2:
         raise EnvMapError(f"{path}: an equirect map needs at least 2 rows, got {rgb.shape[0]}")
@@ -62,6 +69,15 @@ def validate(rgb: np.ndarray, name: str = "environment", sanitize: bool = False)
     warnings.warn(f"{name}: replaced {count} invalid radiance values (NaN, Inf or negative) with 0",
                   SanitizedWarning, stacklevel=2)
     return rgb
+
+
+def check_peak(rgb: np.ndarray, name: str, scale: float = 1.0) -> None:
+    """Refuse radiance above MAX_RADIANCE (after the scale), which would overflow in the renderers."""
+    peak = float(np.max(rgb)) if rgb.size else 0.0
+    if peak > float(np.float32(MAX_RADIANCE)):  # 1e20 itself, as float32 stores it, is accepted
+        times = "" if scale == 1.0 else f" (environment.scale = {scale:g} included)"
+        raise EnvMapError(f"{name}: peak radiance {peak:.3g}{times} is above {MAX_RADIANCE:g}, the most both "
+                          "renderers carry without overflowing float32; lower environment.scale")
 
 
 def write(path: str | Path, rgb: np.ndarray) -> None:

@@ -7,13 +7,13 @@ against `max_pixels` from the header, before pixel memory is allocated.
 
 from __future__ import annotations
 
-import os
 import re
 from pathlib import Path
 
 import numpy as np
 
 from .errors import EnvMapError
+from .files import atomic_output
 
 #: Largest image accepted, in pixels (2^28 = 268 M pixels = 3 GiB of float32 RGB).
 MAX_PIXELS = 1 << 28
@@ -35,40 +35,74 @@ def check_size(path: Path, width: int, height: int, max_pixels: int | None = Non
 
 
 def read_exr(path: Path, max_pixels: int | None = None) -> np.ndarray:
-    """Read R, G, B channels by name (any order, half or float); alpha and others ignored.
-
-    A single-channel file (Y or any one channel) is read as grey.
-    """
+    """Read the R, G, B channels by name (any order, half or float; alpha and others ignored), or a
+    luminance channel Y as grey. Anything else is refused, naming what the file holds (issue 11): an
+    alpha-only file is no white map, a crop of a larger display window no whole equirect map, and
+    several layers or parts are no choice to make silently."""
     import OpenEXR
 
     try:
         with OpenEXR.File(str(path), header_only=True) as f:
             # copy out now: the binding empties the header dict when the file closes
-            lo, hi = (np.array(x) for x in f.header()["dataWindow"])
-    except Exception as exc:  # the binding raises RuntimeError/ValueError for corrupt files
-        raise EnvMapError(f"{path}: not a readable OpenEXR file ({exc})") from None
-    width, height = int(hi[0] - lo[0] + 1), int(hi[1] - lo[1] + 1)
+            header = f.header()
+            data_window = tuple(tuple(int(v) for v in x) for x in header["dataWindow"])
+            display_window = tuple(tuple(int(v) for v in x) for x in header["displayWindow"])
+            parts = [p.name() for p in f.parts]
+    except Exception:  # the binding raises RuntimeError/ValueError for corrupt files
+        raise EnvMapError(f"{path}: not a readable OpenEXR file (bad signature or corrupt header)") from None
+    (x0, y0), (x1, y1) = data_window
+    width, height = x1 - x0 + 1, y1 - y0 + 1
     check_size(path, width, height, max_pixels)
+    if len(parts) > 1:
+        raise EnvMapError(f"{path}: a multi-part OpenEXR file ({len(parts)} parts: {', '.join(parts[:6])}); "
+                          "an environment map is one RGB image: save the part you mean on its own")
+    if data_window != display_window:
+        raise EnvMapError(f"{path}: the data window {data_window} covers only part of the display window "
+                          f"{display_window}; an equirect map must fill its whole image")
     try:
         with OpenEXR.File(str(path), separate_channels=True) as f:
             channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
-    except Exception as exc:
-        raise EnvMapError(f"{path}: corrupt or truncated OpenEXR data ({exc})") from None
-    # Channels may live in a layer ("diffuse.R"): match on the last name component.
-    by_short = {name.rsplit(".", 1)[-1].upper(): px for name, px in channels.items()}
-    if all(c in by_short for c in "RGB"):
-        planes = [by_short[c] for c in "RGB"]
-    elif len(channels) == 1 or "Y" in by_short:
-        grey = by_short.get("Y", next(iter(channels.values())))
-        planes = [grey, grey, grey]
-    else:
-        raise EnvMapError(
-            f"{path}: needs R, G and B channels (or a single grey channel); found {sorted(channels)}"
-        )
+    except Exception:
+        raise EnvMapError(f"{path}: corrupt or truncated OpenEXR pixel data") from None
+    planes = _exr_colour_planes(path, channels)
     out = np.stack([np.asarray(p, dtype=np.float32) for p in planes], axis=-1)
     if out.ndim != 3 or out.shape[:2] != (height, width):
         raise EnvMapError(f"{path}: channel sizes {out.shape} disagree with the data window {width}x{height}")
     return out
+
+
+#: what a channel name says it holds, for errors about files without colour
+_CHANNEL_KINDS = {"R": "red", "G": "green", "B": "blue", "A": "alpha", "Z": "depth", "ZBACK": "depth",
+                  "Y": "luminance", "RY": "chroma", "BY": "chroma"}
+
+
+def _exr_colour_planes(path: Path, channels: dict[str, np.ndarray]) -> list[np.ndarray]:
+    """[R, G, B] planes of one layer, or [Y, Y, Y]; EnvMapError naming the channels otherwise."""
+    layers: dict[str, dict[str, np.ndarray]] = {}
+    for name, px in channels.items():
+        layer, _, short = name.rpartition(".")
+        layers.setdefault(layer, {})[short.upper()] = px
+    held = ", ".join(f"{n} ({_CHANNEL_KINDS.get(n.rpartition('.')[2].upper(), 'unknown')})" for n in sorted(channels))
+    for name, px in channels.items():
+        if px.dtype.kind not in "f":
+            raise EnvMapError(f"{path}: channel {name} holds {px.dtype.name} integers, not radiance "
+                              "(an environment map has half or float R, G, B channels)")
+    rgb = [layer for layer, chans in layers.items() if all(c in chans for c in "RGB")]
+    if "" in rgb:
+        rgb = [""]
+    if len(rgb) > 1:
+        raise EnvMapError(f"{path}: several RGB layers ({', '.join(sorted(rgb))}); an environment map has one: "
+                          "save the layer you mean on its own")
+    if rgb:
+        return [layers[rgb[0]][c] for c in "RGB"]
+    grey = [layer for layer, chans in layers.items() if "Y" in chans]
+    if len(grey) == 1 and not ({"RY", "BY"} & set(layers[grey[0]])):
+        y = layers[grey[0]]["Y"]
+        return [y, y, y]
+    if grey:
+        raise EnvMapError(f"{path}: a luminance/chroma OpenEXR file (channels {held}); save it as RGB")
+    raise EnvMapError(f"{path}: holds no colour radiance: its channels are {held}; an environment map needs "
+                      "R, G and B channels (or one luminance channel Y)")
 
 
 def write_exr(path: Path, rgb: np.ndarray, alpha: np.ndarray | None = None, half: bool = False) -> None:
@@ -83,10 +117,8 @@ def write_exr(path: Path, rgb: np.ndarray, alpha: np.ndarray | None = None, half
     if alpha is not None:
         channels["A"] = np.ascontiguousarray(alpha, dtype=dtype)
     header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
-    tmp = Path(f"{path}.tmp{os.getpid()}")
-    with OpenEXR.File(header, channels) as f:
+    with atomic_output(path) as tmp, OpenEXR.File(header, channels) as f:
         f.write(str(tmp))
-    os.replace(tmp, path)
 
 
 # --------------------------------------------------------------------------- Radiance RGBE
@@ -248,22 +280,29 @@ def _rle_encode(row: np.ndarray) -> bytes:
 # --------------------------------------------------------------------------- PFM
 
 
+_PFM_HEADER = re.compile(rb"^(PF|Pf)\s+(\S+)\s+(\S+)\s+(\S+)\s")
+
+
 def read_pfm(path: Path, max_pixels: int | None = None) -> np.ndarray:
-    """Read a Portable Float Map ('PF' colour or 'Pf' grey); the file stores the bottom row first."""
+    """Read a Portable Float Map ('PF' colour or 'Pf' grey); the file stores the bottom row first.
+
+    The header is three whitespace-separated values after the signature, then one whitespace
+    character; the scale's sign gives the byte order (negative: little-endian). A scale of 0 (or not
+    a finite number) says nothing about the byte order: the file is refused, not read as black."""
     data = Path(path).read_bytes()
-    tokens = data.split(maxsplit=4)
-    if len(tokens) < 5 or tokens[0] not in (b"PF", b"Pf"):
-        raise EnvMapError(f"{path}: not a PFM file (expected 'PF' or 'Pf' header)")
+    m = _PFM_HEADER.match(data[:256])
+    if not m:
+        raise EnvMapError(f"{path}: not a PFM file (expected a 'PF' or 'Pf' header with width, height and scale)")
     try:
-        width, height, scale = int(tokens[1]), int(tokens[2]), float(tokens[3])
+        width, height, scale = int(m.group(2)), int(m.group(3)), float(m.group(4))
     except ValueError:
-        raise EnvMapError(f"{path}: corrupt PFM header {data[:40]!r}") from None
+        raise EnvMapError(f"{path}: corrupt PFM header {data[:m.end()][:40]!r}") from None
+    if not np.isfinite(scale) or scale == 0:
+        raise EnvMapError(f"{path}: PFM scale {m.group(4).decode(errors='replace')!r} must be a non-zero number "
+                          "(its sign gives the byte order: negative for little-endian)")
     check_size(path, width, height, max_pixels)
-    ch = 3 if tokens[0] == b"PF" else 1
-    # header is three whitespace-separated lines; pixel data starts after the third newline
-    offset = 0
-    for _ in range(3):
-        offset = data.index(b"\n", offset) + 1
+    ch = 3 if m.group(1) == b"PF" else 1
+    offset = m.end()
     count = width * height * ch
     if len(data) - offset < 4 * count:
         raise EnvMapError(f"{path}: truncated PFM data ({len(data) - offset} bytes, need {4 * count})")

@@ -8,6 +8,15 @@ the normalised Phong lobe ks (N + 1)/(2 pi) max(r.l, 0)^N:
     phong     1              ks, exponent                  glossy
     blend     Schlick(f0)    kd, ks, exponent, f0          diffuse + glossy, (1 - F) / F
 
+Every type also takes the keys of COMMON_FIELDS:
+
+    two_sided   false (default): one-sided. Both renderers shade a point only when the viewer is on
+                the front side of its shading normal (n . v > 0, n the interpolated vertex normal);
+                elsewhere (the back of a surface, and a silhouette where the interpolated normal has
+                turned away from the viewer) the point is black: the reference's BSDF is zero for
+                n . v <= 0, as Mitsuba's own one-sided BSDFs are. true: the normal is flipped
+                towards the viewer (the reference wraps its BSDF in Mitsuba's `twosided`).
+
 This table drives scene validation (which keys a type accepts, the defaults of the others), the
 reference cache key (only the fields a type uses: an unused kd must not split the cache), the
 Mitsuba plugin and the shader (`code`, the same integer on both sides), and the quadrature's lobe
@@ -30,6 +39,11 @@ class MaterialType:
     defaults: tuple[tuple[str, object], ...] = ()  # values of the fields it does not use
 
     @property
+    def all_fields(self) -> tuple[str, ...]:
+        """The type's own fields and the common ones (COMMON_FIELDS)."""
+        return (*self.fields, *COMMON_FIELDS)
+
+    @property
     def diffuse_lobe(self) -> bool:
         return self.fresnel != "one"
 
@@ -39,7 +53,11 @@ class MaterialType:
 
     @property
     def scene_keys(self) -> frozenset[str]:
-        return frozenset(("type", *self.fields))
+        return frozenset(("type", *self.all_fields))
+
+
+#: fields every material type has (see the module docstring)
+COMMON_FIELDS = ("two_sided",)
 
 
 TYPES: dict[str, MaterialType] = {t.name: t for t in (
@@ -56,8 +74,9 @@ def of(material) -> MaterialType:
 
 
 def used_fields(material) -> dict:
-    """{"type": ..., field: value} for the fields the material's type uses (cache keys, result rows)."""
-    return {"type": material.type, **{k: getattr(material, k) for k in of(material).fields}}
+    """{"type": ..., field: value} for the fields the material's type uses, the common ones included
+    (cache keys, result rows)."""
+    return {"type": material.type, **{k: getattr(material, k) for k in of(material).all_fields}}
 
 
 def glsl_defines() -> tuple[str, ...]:

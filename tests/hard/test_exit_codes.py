@@ -1,0 +1,314 @@
+"""Issue 11, section 3: exit codes keep their meaning.
+
+1 is only ever "a gate failed"; bad input and unusable paths 2; a missing machine dependency (or memory) 3;
+an internal error 4, one line, the traceback only under --debug; Ctrl-C 130, resumable. Every input that once
+tracebacked (symbolic link loops, non-UTF-8 or deeply nested TOML, corrupt result lines, map values near the
+float32 maximum, a vanishing field of view, ...) is a clear refusal or a correct finite render.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from experiments import cli, hostile
+from experiments.results import RESULTS
+from experiments.stability_hostile import tiny_scene
+from scenes import MissingCapability, imageio
+from tests.hard.common import ROOT
+
+INTERNAL = [ZeroDivisionError("division by zero"), AttributeError("'NoneType' object has no attribute 'x'"),
+            KeyError("k"), IndexError("list index out of range"), TypeError("bad"), AssertionError("no"),
+            RecursionError("deep"), RuntimeError("GL error"), FloatingPointError("NaN in the reference"),
+            NotImplementedError(), OSError("no file name")]
+
+
+def run(func, debug: bool = False, capsys=None) -> tuple[int, list[str], str]:
+    code = cli.run_command(argparse.Namespace(func=func), debug)
+    err = capsys.readouterr().err
+    return code, err.strip().splitlines(), err
+
+
+def raising(exc):
+    def func(args):
+        raise exc
+
+    return func
+
+
+@pytest.mark.parametrize("exc", INTERNAL, ids=[type(e).__name__ for e in INTERNAL])
+def test_an_internal_error_exits_4_with_one_line(capsys, exc):
+    code, lines, err = run(raising(exc), capsys=capsys)
+    assert code == cli.EXIT_INTERNAL == 4
+    assert len(lines) == 1 and lines[0].startswith("error: internal error") and "--debug" in lines[0]
+    assert "Traceback" not in err
+
+
+def test_debug_adds_the_traceback(capsys):
+    code, lines, err = run(raising(ZeroDivisionError("x")), debug=True, capsys=capsys)
+    assert code == 4 and "Traceback" in err and lines[-1].startswith("error: internal error")
+
+
+def test_debug_is_taken_anywhere_on_the_command_line(capsys, monkeypatch):
+    monkeypatch.setattr(cli, "_cmd_report", raising(ValueError("boom")))  # looked up when the parser is built
+    for argv in (["--debug", "report", "x"], ["report", "x", "--debug"]):
+        assert cli.main(argv) == 4
+        assert "Traceback" in capsys.readouterr().err
+    assert cli.main(["report", "x"]) == 4
+    assert "Traceback" not in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(("exc", "code", "words"), [
+    (KeyboardInterrupt(), 130, "interrupted"), (MemoryError(), 3, "out of memory"),
+    (MissingCapability("no OpenGL 4.3 context", "install libegl1"), 3, "libegl1"),
+    (OSError(28, "No space left on device", "/data/out.exr"), 2, "/data/out.exr: No space left"),
+    (cli.UsageError("bad flag"), 2, "bad flag"),
+])
+def test_other_endings_keep_their_codes(capsys, exc, code, words):
+    got, lines, err = run(raising(exc), capsys=capsys)
+    assert got == code and len(lines) == 1 and words in lines[0] and "Traceback" not in err
+
+
+def test_a_crash_inside_the_gate_is_not_a_failed_gate(tmp_path, capsys, monkeypatch):
+    from experiments import comparison
+
+    monkeypatch.setattr(comparison, "run", raising(RuntimeError("the GL driver crashed")))
+    code = cli.main(["gate", str(tiny_scene(tmp_path)), "--min-psnr", "10"])
+    assert code == 4 and "internal error" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("flag", ["--min-psnr", "--min-ssim", "--max-flip"])
+@pytest.mark.parametrize("value", ["nan", "NaN", "inf", "-inf", "1e999", "abc", "", "0x10", "1e3000"])
+def test_thresholds_must_be_finite_numbers(tmp_path, capsys, monkeypatch, flag, value):
+    from experiments import comparison
+
+    monkeypatch.setattr(comparison, "run", raising(AssertionError("compared before the thresholds were checked")))
+    code = cli.main(["gate", str(tiny_scene(tmp_path)), f"{flag}={value}"])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and flag in err[0], err
+
+
+@pytest.mark.parametrize(("flag", "value"), [("--min-ssim", "1.5"), ("--min-ssim", "-2"), ("--max-flip", "-0.1"),
+                                             ("--max-flip", "1.01"), ("--min-psnr", "1e4")])
+def test_thresholds_out_of_range(tmp_path, capsys, flag, value):
+    assert cli.main(["gate", str(tiny_scene(tmp_path)), f"{flag}={value}"]) == 2
+    assert "must be a number in" in capsys.readouterr().err
+
+
+# --------------------------------------------------------------------------- inputs that once tracebacked
+
+
+def refused(capsys, argv: list[str]) -> str:
+    code = cli.main(argv)
+    err = capsys.readouterr().err
+    lines = [x for x in err.strip().splitlines() if not x.startswith("warning:")]
+    assert code == 2 and len(lines) == 1 and lines[0].startswith("error: "), (code, err)
+    assert not hostile.python_text(lines[0]), lines[0]
+    return lines[0]
+
+
+def test_symbolic_link_loops_as_scene_map_and_mesh(tmp_path, capsys):
+    (tmp_path / "s").mkdir()
+    loops = {suffix: hostile.special_paths(tmp_path / "s", suffix)[0][1] for suffix in (".exr", ".obj", ".toml")}
+    assert "symbolic link loop" in refused(capsys, ["render", str(loops[".toml"])])
+    assert "symbolic link loop" in refused(capsys, ["render", str(tiny_scene(tmp_path, "m", env=str(loops[".exr"])))])
+    assert "symbolic link loop" in refused(capsys, ["render", str(tiny_scene(tmp_path, "o", shape=str(loops[".obj"])))])
+    line = refused(capsys, ["render", str(tiny_scene(tmp_path)), "--set", f"environment.map={loops['.exr']}"])
+    assert "symbolic link loop" in line  # --set paths are not resolved (Path.resolve raised on a loop)
+    line = refused(capsys, ["sweep", str(tiny_scene(tmp_path)), "--envs", str(loops[".exr"]), "--out",
+                            str(tmp_path / "sw")])
+    assert "symbolic link loop" in line
+
+
+@pytest.mark.parametrize(("label", "data", "words"), [
+    ("latin-1", 'name = "café"\n'.encode("latin-1"), ["not UTF-8", "0xe9"]),
+    ("UTF-16", 'name = "x"\n'.encode("utf-16"), ["not UTF-8"]),
+    ("a lone continuation byte", b'name = "\x80"\n', ["not UTF-8", "0x80"]),
+    ("NUL bytes", b"name = \x00\n", ["malformed TOML"]),
+    ("arrays 5000 deep", b"x = " + b"[" * 5000 + b"]" * 5000, ["too deeply"]),
+    ("inline tables 3000 deep", b"x = " + b"{a = " * 3000 + b"1" + b"}" * 3000, ["too deeply"]),
+    ("arrays 40 deep", b"[camera]\norigin = " + b"[" * 40 + b"]" * 40, ["camera.origin", "16 levels"]),
+    ("tables 30 deep", b"[" + b".".join(b"t%d" % i for i in range(30)) + b"]\n", ["16 levels"]),
+    ("a byte-order mark", '\ufeffname = "bom"\n[camera\n'.encode(), ["malformed TOML"]),
+])
+def test_scene_files_that_once_tracebacked(tmp_path, capsys, label, data, words):
+    path = tmp_path / "bad.toml"
+    path.write_bytes(data)
+    line = refused(capsys, ["render", str(path)])
+    assert "bad.toml" in line and all(w in line for w in words), line
+
+
+def test_a_byte_order_mark_alone_is_accepted(tmp_path):
+    import scenes
+
+    path = tiny_scene(tmp_path, "bom")
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())
+    assert scenes.load(path).name == "bom"
+
+
+@pytest.mark.parametrize("value", ["[" * 3000 + "]" * 3000, "{a=" * 3000 + "1" + "}" * 3000, "[1.0, 2.0, 3.0" * 1000])
+def test_set_values_nested_or_broken(tmp_path, capsys, value):
+    line = refused(capsys, ["render", str(tiny_scene(tmp_path)), "--set", f"camera.origin={value}"])
+    assert "camera.origin" in line and len(line) < 700
+
+
+@pytest.mark.parametrize(("label", "line", "words"), [
+    ("a list", "[1, 2, 3]", ["not an object"]),
+    ("a number", "42", ["not an object"]),
+    ("NaN", "NaN", ["not an object"]),
+    ("missing keys", '{"id": "x"}', ["missing keys"]),
+    ("wrong types", None, ["realtime_ms"]),
+    ("a string psnr", None, ["psnr"]),
+    ("no materials", None, ["materials"]),
+    ("nested 100000 deep", "[" * 100000 + "]" * 100000, ["nested too deeply"]),
+    ("not JSON", '{"id": "x", oops}', ["not JSON"]),
+    ("bytes that are not UTF-8", None, ["line 2"]),
+])
+def test_corrupt_complete_lines_in_results(tmp_path, capsys, label, line, words):
+    good = hostile.hostile_rows()[0].to_dict()
+    if label == "wrong types":
+        line = json.dumps({**good, "realtime_ms": 5})
+    elif label == "a string psnr":
+        line = json.dumps({**good, "psnr": "high"})
+    elif label == "no materials":
+        line = json.dumps({**good, "materials": []})
+    elif label == "bytes that are not UTF-8":
+        line = json.dumps({**good, "scene": "\udcff"}, ensure_ascii=False).encode("utf-8", "surrogateescape")
+    body = json.dumps(good).encode() + b"\n" + (line if isinstance(line, bytes) else line.encode()) + b"\n"
+    (tmp_path / RESULTS).write_bytes(body)
+    if label == "bytes that are not UTF-8":  # replaced on reading: the row is valid, with U+FFFD in its name
+        assert cli.main(["report", str(tmp_path)]) == 0
+        return
+    err = refused(capsys, ["report", str(tmp_path)])
+    assert "line 2" in err and all(w in err for w in words), err
+
+
+def test_a_corrupt_experiments_json_is_refused(tmp_path, capsys):
+    (tmp_path / RESULTS).write_text("")
+    (tmp_path / "experiments.json").write_text('{"sections": 5}')
+    assert "experiments.json" in refused(capsys, ["report", str(tmp_path)])
+    (tmp_path / "experiments.json").write_text("[" * 100000)
+    assert "experiments.json" in refused(capsys, ["report", str(tmp_path)])
+
+
+@pytest.mark.parametrize("peak", [3.4e38, 1e30, 1e21])
+def test_map_values_near_the_float32_maximum_are_refused(tmp_path, capsys, peak):
+    rgb = np.full((8, 16, 3), 0.5, np.float32)
+    rgb[3, 4] = peak
+    imageio.write_exr(tmp_path / "hot.exr", rgb)
+    line = refused(capsys, ["render", str(tiny_scene(tmp_path, env=str(tmp_path / "hot.exr")))])
+    assert "hot.exr" in line and "1e+20" in line and "environment.scale" in line
+
+
+def test_a_scale_that_overflows_is_refused(tmp_path, capsys):
+    imageio.write_exr(tmp_path / "big.exr", np.full((8, 16, 3), 1e30, np.float32))
+    scene = tiny_scene(tmp_path, env=str(tmp_path / "big.exr"))
+    line = refused(capsys, ["render", str(scene), "--set", "environment.scale=1e9"])
+    assert "environment.scale = 1e+09" in line  # 1e39 overflows float32 to inf: refused, not rendered as NaN
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+@pytest.mark.parametrize("peak", [1e20, 1e12])
+def test_bright_but_accepted_maps_render_finite_in_all_three_renderers(tmp_path, monkeypatch, peak):
+    import groundtruth
+    import realtime
+    import scenes
+    from experiments import metrics
+    from groundtruth import quadrature
+
+    monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
+    rgb = np.full((8, 16, 3), 0.5, np.float32)
+    rgb[3, 4] = peak
+    imageio.write_exr(tmp_path / "hot.exr", rgb)
+    s = scenes.load(tiny_scene(tmp_path, env=str(tmp_path / "hot.exr")))
+    for r in (realtime.render(s), groundtruth.render(s), quadrature.render(s, subpixels=1)):
+        assert np.isfinite(r.rgb).all() and r.rgb.min() >= 0
+        assert np.isfinite(metrics.display(s, r.rgb)).all()
+
+
+@pytest.mark.parametrize("fov", ["1e-30", "1e-300", "5e-324", "0.0009", "-0.0", "180.0", "nan"])
+def test_a_vanishing_or_impossible_field_of_view_is_refused(tmp_path, capsys, fov):
+    line = refused(capsys, ["render", str(tiny_scene(tmp_path)), "--set", f"camera.fov_deg={fov}"])
+    assert "camera.fov_deg" in line and "[0.001, 180)" in line
+
+
+@pytest.mark.gl
+def test_the_smallest_field_of_view_renders(tmp_path, capsys):
+    assert cli.main(["render", str(tiny_scene(tmp_path)), "--set", "camera.fov_deg=0.001", "-o",
+                     str(tmp_path / "o.exr")]) == 0
+    assert np.isfinite(imageio.read_exr(tmp_path / "o.exr")).all()
+
+
+@pytest.mark.parametrize(("sets", "words"), [
+    (["camera.width=16384", "camera.height=16384"], ["camera.width x camera.height", "67108864"]),
+    (["camera.width=16384", "camera.height=4097"], ["pixels"]),
+    (["objects.0.resolution=1024"], ["objects[0].resolution = 1024", "4190208 triangles"]),
+    (["objects.0.shape=\"teapot\"", "objects.0.resolution=200"], ["teapot", "triangles"]),
+    (["environment.map=\"a\\u0000b.exr\""], ["environment.map", "NUL"]),
+    (["objects.0.shape=\"a\\u0000b.obj\""], ["shape", "NUL"]),
+    (["objects.7.scale=2.0"], ["no object"]),
+])
+def test_more_of_the_class(tmp_path, capsys, sets, words):
+    argv = ["render", str(tiny_scene(tmp_path))]
+    for kv in sets:
+        argv += ["--set", kv]
+    line = refused(capsys, argv)
+    assert all(w in line for w in words), line
+
+
+def test_a_scene_folder_or_device_says_so(tmp_path, capsys):
+    (tmp_path / "dir.toml").mkdir()
+    assert "is a folder" in refused(capsys, ["render", str(tmp_path / "dir.toml")])
+    assert "is a device" in refused(capsys, ["render", "/dev/null"])
+    os.mkfifo(tmp_path / "fifo.toml")
+    assert "named pipe" in refused(capsys, ["render", str(tmp_path / "fifo.toml")])  # never blocks reading it
+
+
+def test_a_huge_scene_file_is_refused_before_parsing(tmp_path, capsys, monkeypatch):
+    from scenes import scene
+
+    monkeypatch.setattr(scene, "MAX_SCENE_BYTES", 100)
+    path = tiny_scene(tmp_path)
+    path.write_text(path.read_text() + "#" * 200)
+    assert "at most 100 bytes" in refused(capsys, ["render", str(path)])
+
+
+# --------------------------------------------------------------------------- Ctrl-C
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_ctrl_c_exits_130_and_the_sweep_resumes(tmp_path):
+    """SIGINT during a sweep: exit 130 with one line; rerun: every row once."""
+    scene = tiny_scene(tmp_path)
+    cmd = [sys.executable, "-m", "experiments.cli", "sweep", str(scene), "--face-sizes", "1,2,4,8", "--lod-biases",
+           "0,1", "--out", str(tmp_path / "sw")]
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(tmp_path / "cache")}
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    results = tmp_path / "sw" / RESULTS
+    deadline = time.time() + 120
+    while time.time() < deadline and proc.poll() is None:
+        if results.exists() and results.read_text().count("\n") >= 1:
+            break
+        time.sleep(0.02)
+    proc.send_signal(signal.SIGINT)
+    err = proc.communicate(timeout=120)[1]
+    assert proc.returncode == 130, err
+    lines = [x for x in err.splitlines() if x.startswith("error:")]
+    assert len(lines) == 1 and "interrupted" in lines[0] and "Traceback" not in err
+    first = [json.loads(x)["id"] for x in results.read_text().splitlines()]
+    assert 1 <= len(first) < 8
+    done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    ids = [json.loads(x)["id"] for x in results.read_text().splitlines()]
+    assert len(ids) == len(set(ids)) == 8 and ids[: len(first)] == first
