@@ -33,15 +33,35 @@ def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False)
 
 
 def parse_axis(item: str) -> tuple[str, list[Any]]:
-    """`--axis KEY=V1,V2,...` -> (KEY, [V1, V2, ...]); values are TOML literals (2, 0.5, "box" or box)."""
+    """`--axis KEY=V1,V2,...` -> (KEY, [V1, V2, ...]); values are TOML literals (2, 0.5, "box" or box,
+    [0, 0, 4]: commas inside brackets do not split)."""
     from scenes.scene import parse_literal
 
     key, sep, values = item.partition("=")
     key = key.strip()
     if not sep or not key or not values.strip():
         raise UsageError(f"--axis {item!r}: expected KEY=V1,V2,..., e.g. --axis realtime.glossy=box,prefiltered")
-    out = [parse_literal(v.strip()) for v in values.split(",") if v.strip()]
+    out = [parse_literal(v.strip()) for v in split_top_level(values) if v.strip()]
     return key, out
+
+
+def split_top_level(text: str) -> list[str]:
+    """Split at commas outside brackets and quotes: '[0,0,4],[0,0,6]' -> ['[0,0,4]', '[0,0,6]']."""
+    parts, depth, quote, start = [], 0, "", 0
+    for i, ch in enumerate(text):
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
 
 
 def parse_list(text: str | None, kind: type, flag: str) -> list | None:

@@ -14,6 +14,15 @@ The reference depends on none of the real-time keys; its cache renders it once p
 
 Rows (experiments/results.py) are appended to DIR/results.jsonl as they finish (flushed and
 fsynced). A rerun skips the rows already there (by `id`) and drops a half-written last line.
+
+Row ids are keyed by content (issue 11), like the reference cache: a hash of the resolved scene (every
+key with its default filled in, `to_dict`), the bytes of a map file and of mesh files (not their
+paths), and ROW_VERSION and the reference plugin's version. So:
+- editing the scene file, the map or a mesh and rerunning computes new rows; the old rows, whose
+  content no longer matches their spec and overrides, are dropped from the store (with a warning);
+- two configurations that resolve to the same content (`--face-sizes 8,8`, `a.exr,./a.exr`, an axis
+  value equal to the scene's own) are one row of the plan;
+- one process writes a folder at a time (results.folder_lock): a second sweep into it is refused.
 """
 
 from __future__ import annotations
@@ -21,14 +30,24 @@ from __future__ import annotations
 import hashlib
 import itertools
 import json
+import warnings
 from dataclasses import dataclass, field
+from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
 from . import comparison, images
-from .results import RESULTS, ResultRow, store_in
+from .results import RESULTS, ResultRow, folder_lock, store_in
+from .text import one_line
 
-__all__ = ["RESULTS", "Axes", "configurations", "plan", "row_id", "run", "run_row"]
+__all__ = ["RESULTS", "Axes", "configurations", "content_id", "plan", "row_id", "run", "run_row"]
+
+#: bump when what a row measures changes for the same scene (it is part of every row id)
+ROW_VERSION = 2
+
+
+class StaleRowsWarning(UserWarning):
+    """Rows of results.jsonl whose scene, map or mesh changed since they were computed were dropped."""
 
 #: the shortcut flags and the scene keys they sweep
 SHORTCUTS = {"face_sizes": "realtime.face_size", "lod_biases": "realtime.lod_bias",
@@ -45,6 +64,7 @@ class Axes:
     envs: list[str] | None = None
     lod_mappings: list[str] | None = None
     extra: list[tuple[str, list[Any]]] = field(default_factory=list)  # --axis KEY=V1,V2 (in order)
+    technique_axes: bool = False  # --technique-axes: every technique of the scene's effects and its axes
 
     def grid(self) -> list[tuple[str, list[Any]]]:
         """[(scene key, values)], the shortcuts first; a key given twice keeps its last values."""
@@ -62,11 +82,35 @@ def _hashable(v: Any) -> Any:
     return tuple(v) if isinstance(v, list) else v
 
 
-def relevant(scene, key: str, overrides: dict[str, Any]) -> bool:
+#: keys that choose what a configuration simulates: they decide which other keys matter
+CHOICE_KEYS = ("realtime.diffuse", "realtime.glossy", "realtime.occlusion", "realtime.interreflection",
+               "realtime.parameterization")
+
+
+def chosen_scene(scene, overrides: dict[str, Any], cache: dict | None = None):
+    """`scene` with the configuration's technique choices and material types and shapes applied: what
+    decides which other keys matter (the effects follow from the objects, the tables from the choices).
+    Other material keys are left out: a type may refuse them (a diffuse material has no exponent)."""
+    sub = {k: v for k, v in overrides.items()
+           if k in CHOICE_KEYS or (k.startswith("objects.") and k.endswith((".material.type", ".shape")))}
+    if not sub:
+        return scene
+    ident = json.dumps(sub, sort_keys=True, default=str)
+    if cache is not None and ident in cache:
+        return cache[ident]
+    out = scene.with_overrides({k: (list(v) if isinstance(v, tuple) else v) for k, v in sub.items()})
+    if cache is not None:
+        cache[ident] = out
+    return out
+
+
+def relevant(scene, key: str, overrides: dict[str, Any], cache: dict | None = None) -> bool:
     """Whether `key` can change the image of `scene` with `overrides` (see the module docstring)."""
     from realtime import technique
+    from scenes.scene import table_users
 
-    fx = scene.effects
+    cfg = chosen_scene(scene, overrides, cache)
+    fx = cfg.effects
     if key.endswith("material.exponent"):
         return "glossy" in fx
     if key.endswith("material.f0"):
@@ -74,23 +118,46 @@ def relevant(scene, key: str, overrides: dict[str, Any]) -> bool:
     parts = key.split(".")
     if len(parts) == 2 and parts[0] == "realtime" and parts[1] in technique.EFFECT_KEYS:
         return parts[1] in fx
+    if key == "realtime.reflection":  # the mirror direction per vertex or per pixel: glossy only
+        return "glossy" in fx
+    if len(parts) == 3 and parts[0] == "realtime" and parts[1] in table_users(cfg.realtime):
+        return table_users(cfg.realtime)[parts[1]] is not None  # a technique table: where it is read
     owner = technique.owner_of(key)
     if owner is None:
         return True
     effect, value = owner
-    chosen = overrides.get(f"realtime.{effect}", getattr(scene.realtime, effect))
-    return effect in fx and chosen == value
+    return effect in fx and getattr(cfg.realtime, effect) == value
+
+
+def technique_grid(scene) -> list[tuple[str, list[Any]]]:
+    """`--technique-axes`: for each effect of the scene, every implemented technique and the axes each
+    declares worth sweeping (`Technique.axes`); `configurations` keeps each only where it applies."""
+    from realtime import technique
+
+    out: list[tuple[str, list[Any]]] = []
+    for effect in technique.EFFECT_KEYS:
+        if effect not in scene.effects:
+            continue
+        names = [v for (e, v) in technique.REGISTRY if e == effect]
+        out.append((f"realtime.{effect}", names))
+        for name in names:
+            out += [(k, list(v)) for k, v in technique.technique_class(effect, name).axes.items()]
+    return out
 
 
 def configurations(scene, axes: Axes) -> list[dict[str, Any]]:
     """Override dicts for `scene.with_overrides`: the product of the axes, each reduced to the keys
     that matter to it, without duplicates, in order."""
     grid = axes.grid()
+    if axes.technique_axes:
+        given = {k for k, _ in grid}
+        grid += [(k, v) for k, v in technique_grid(scene) if k not in given]
     keys = [k for k, _ in grid]
-    out, seen = [], set()
+    out, seen, cache = [], set(), {}
     for values in itertools.product(*(v for _, v in grid)):
         full = dict(zip(keys, values, strict=True))
-        reduced = {k: (list(v) if isinstance(v, tuple) else v) for k, v in full.items() if relevant(scene, k, full)}
+        reduced = {k: (list(v) if isinstance(v, tuple) else v) for k, v in full.items()
+                   if relevant(scene, k, full, cache)}
         ident = json.dumps(reduced, sort_keys=True)
         if ident not in seen:
             seen.add(ident)
@@ -98,30 +165,96 @@ def configurations(scene, axes: Axes) -> list[dict[str, Any]]:
     return out
 
 
-def row_id(scene_spec: str, overrides: dict) -> str:
-    text = json.dumps({"scene": scene_spec, "overrides": overrides}, sort_keys=True)
+@lru_cache(maxsize=64)
+def _file_digest(path: str, mtime_ns: int, size: int) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def file_digest(path: str) -> str:
+    """SHA-256 of a file's bytes, cached per (path, modification time, size)."""
+    st = Path(path).stat()
+    return _file_digest(str(path), st.st_mtime_ns, st.st_size)
+
+
+def scene_content(scene, reference_only: bool = False) -> dict:
+    """What determines a row of `scene`: the resolved scene with file paths replaced by the files'
+    digests (the [gate] table is left out: it changes no measurement). `reference_only` keeps what
+    the reference depends on (no [realtime], no tone mapping)."""
+    from scenes.meshes import BUILTIN_MESHES
+
+    d = scene.to_dict()
+    d.pop("path", None)
+    d.pop("gate", None)
+    env = d["environment"]
+    if not scene.environment.builtin_name:
+        env["map"] = {"sha256": file_digest(scene.environment.map)}
+    for obj, od in zip(scene.objects, d["objects"], strict=True):
+        if obj.shape not in BUILTIN_MESHES:
+            od["shape"] = {"sha256": file_digest(obj.shape)}
+    if reference_only:
+        for key in ("realtime", "tonemap", "name"):
+            d.pop(key, None)
+    return d
+
+
+def content_id(scene, reference_only: bool = False) -> str:
+    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION and the reference plugin's version."""
+    from groundtruth.paper_bsdf import PLUGIN_VERSION
+
+    text = json.dumps({"row": ROW_VERSION, "plugin": PLUGIN_VERSION,
+                       "scene": scene_content(scene, reference_only)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
-def reference_id(scene_spec: str, overrides: dict) -> str:
-    keep = {k: v for k, v in overrides.items() if not k.startswith("realtime.")}
-    return row_id(scene_spec, keep)
+def row_id(scene_spec: str, overrides: dict) -> str:
+    """The content id of the row (scene_spec, overrides) (see the module docstring)."""
+    import scenes
+
+    scene = scenes.load(scene_spec)
+    return content_id(scene.with_overrides(overrides) if overrides else scene)
 
 
 def plan(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[tuple[str, dict]]:
-    """[(scene spec, overrides)] for every row of the sweep, in order. Every scene is loaded and every
-    configuration validated first, so bad input fails before anything renders."""
+    """[(scene spec, overrides)] for every row of the sweep, in order, one per content id. Every
+    scene is loaded and every configuration validated first, so bad input fails before anything
+    renders."""
+    return [(spec, ov) for spec, ov, _ in plan_with_ids(scene_specs, axes, sets)]
+
+
+def plan_with_ids(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[tuple[str, dict, str]]:
     import scenes
 
-    out = []
+    out, seen = [], set()
     for spec in scene_specs:
         base = scenes.load(spec)
         if sets:
             base = base.with_overrides(sets)
         for ov in configurations(base, axes):
             full = {**(sets or {}), **ov}
-            base.with_overrides(ov)  # validates (e.g. a technique value that is not implemented yet)
-            out.append((spec, full))
+            rid = content_id(base.with_overrides(ov))  # also validates (e.g. a value not implemented yet)
+            if rid not in seen:
+                seen.add(rid)
+                out.append((spec, full, rid))
+    return out
+
+
+def stale(rows: list[ResultRow]) -> list[ResultRow]:
+    """Rows whose spec and overrides no longer give their id (the scene file, map or a mesh changed,
+    or the spec cannot be loaded any more)."""
+    from scenes import InputError
+
+    out = []
+    for r in rows:
+        try:
+            now = row_id(r.spec, r.overrides)
+        except InputError:
+            now = None
+        if now != r.id:
+            out.append(r)
     return out
 
 
@@ -143,7 +276,7 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     scene = scenes.load(spec).with_overrides(overrides)
     c = comparison.run(scene)
     test = c.test
-    rid, ref_id = row_id(spec, overrides), reference_id(spec, overrides)
+    rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, c.reference, c.mask)
     m = c.metrics
     eq_s, eq_how = None, None
@@ -167,28 +300,51 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
 
 def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = None,
         report: bool = True) -> list[ResultRow]:
-    """Run (or resume) a sweep into out_dir; returns all rows of results.jsonl."""
+    """Run (or resume) a sweep into out_dir; returns all rows of results.jsonl.
+
+    The plan is made (every scene validated) and out_dir checked before anything renders; the
+    folder is locked for the whole run (a second writer is refused)."""
+    from . import outputs
+
+    todo_plan = plan_with_ids(scene_specs, axes, sets)
+    with outputs.Outputs() as out_plan, folder_lock(out_plan.folder(out_dir, "--out")):
+        store = store_in(out_dir)
+        rows = drop_stale(store)
+        done = {r.id for r in rows}
+        todo = [(s, o) for s, o, rid in todo_plan if rid not in done]
+        _run_rows(out_dir, store, todo, len(done))
+        rows = store.read()
+        if report:
+            from . import report as report_mod
+
+            report_mod.build(out_dir)
+    return rows
+
+
+def drop_stale(store) -> list[ResultRow]:
+    """The store's rows, without the stale ones (rewritten away, with a warning)."""
+    rows = store.read()
+    old = stale(rows)
+    if old:
+        ids = {r.id for r in old}
+        rows = [r for r in rows if r.id not in ids]
+        store.rewrite(rows)
+        warnings.warn(f"{store.path}: dropped {len(old)} rows whose scene, map or mesh changed since they were "
+                      "computed (or that no longer load); they are computed again", StaleRowsWarning, stacklevel=2)
+    return rows
+
+
+def _run_rows(out_dir: Path, store, todo: list[tuple[str, dict]], done: int) -> None:
     from rich import progress as rp
 
-    todo_plan = plan(scene_specs, axes, sets)
-    out_dir.mkdir(parents=True, exist_ok=True)
-    store = store_in(out_dir)
-    done = {r.id for r in store.read()}
-    todo = [(s, o) for s, o in todo_plan if row_id(s, o) not in done]
     columns = [rp.TextColumn("[bold]sweep"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
-               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}")]
+               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
     with rp.Progress(*columns, transient=False) as progress:
-        task = progress.add_task("", total=len(done) + len(todo), completed=len(done))
+        task = progress.add_task("", total=done + len(todo), completed=done)
         for spec, ov in todo:
-            progress.update(task, description=f"{spec} {short(ov)}")
+            progress.update(task, description=one_line(f"{spec} {short(ov)}", 120))
             store.append(run_row(out_dir, spec, ov))
             progress.advance(task)
-    rows = store.read()
-    if report:
-        from . import report as report_mod
-
-        report_mod.build(out_dir)
-    return rows
 
 
 def short(overrides: dict) -> str:

@@ -60,3 +60,18 @@ def seam_residual(faces: np.ndarray) -> dict[str, float]:
 
     edge, inside = rel(e, a), rel(e, i)
     return {"edge": edge, "inside": inside, "ratio": edge / inside if inside > 0 else float("inf")}
+
+
+def smooth_lobes(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A smooth map (a few wide exponential lobes on a floor) and its spherical Laplacian, per direction.
+
+    For g = a exp(k (mu.w - 1)) with u = mu.w: Laplace-Beltrami g = k^2 (1 - u^2) g - 2 k u g."""
+    f = np.full(d.shape[:-1], 0.2)
+    lap = np.zeros(d.shape[:-1])
+    for mu, k, a in (((0.3, 0.8, -0.5), 4.0, 1.0), ((-0.7, -0.2, 0.4), 8.0, 2.0), ((0.0, -1.0, 0.1), 2.0, 0.5)):
+        mu = np.asarray(mu) / np.linalg.norm(mu)
+        u = d @ mu
+        g = a * np.exp(k * (u - 1.0))
+        f = f + g
+        lap = lap + g * (k * k * (1.0 - u * u) - 2.0 * k * u)
+    return f, lap

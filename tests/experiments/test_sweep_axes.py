@@ -99,3 +99,45 @@ def test_a_half_written_line_is_cut_and_a_corrupt_line_named(tmp_path):
         f.write(json.dumps({"id": "x"}) + "\n")
     with pytest.raises(InputError, match="line 2"):
         store.read()
+
+
+def test_relevance_follows_each_configurations_own_effects(tmp_path):
+    # a material-type axis: the exponent matters to the phong rows only, f0 to none of them
+    path = tmp_path / "plain.toml"
+    path.write_text('[[objects]]\nshape = "sphere"\nmaterial = { type = "diffuse" }\n')
+    got = configs(str(path), exponents=[10.0, 100.0], f0s=[0.5],
+                  extra=[("objects.0.material.type", ["diffuse", "phong"])])
+    assert got == [{"realtime.face_size": 16, "objects.0.material.type": "diffuse"},
+                   {"realtime.face_size": 16, "objects.*.material.exponent": 10.0, "objects.0.material.type": "phong"},
+                   {"realtime.face_size": 16, "objects.*.material.exponent": 100.0, "objects.0.material.type": "phong"}]
+
+
+def test_technique_tables_vary_only_where_read():
+    got = configs("builtin:sphere-diffuse", extra=[("realtime.diffuse", ["sh", "irradiance_map"]),
+                                                    ("realtime.irradiance_map.size", [16, 32])])
+    assert got == [{"realtime.face_size": 16, "realtime.diffuse": "sh"},
+                   {"realtime.face_size": 16, "realtime.diffuse": "irradiance_map", "realtime.irradiance_map.size": 16},
+                   {"realtime.face_size": 16, "realtime.diffuse": "irradiance_map", "realtime.irradiance_map.size": 32}]
+
+
+def test_technique_axes_come_from_the_techniques_declarations():
+    from realtime import technique
+
+    got = configs("builtin:sphere-diffuse", technique_axes=True)
+    sh_axes = technique.technique_class("diffuse", "sh").axes
+    irr_axes = technique.technique_class("diffuse", "irradiance_map").axes
+    n_sh = len(sh_axes["realtime.sh_order"]) * len(sh_axes["realtime.sh_window"])
+    n_irr = len(irr_axes["realtime.irradiance_map.size"]) * len(irr_axes["realtime.irradiance_map.source_size"])
+    assert len(got) == n_sh + n_irr
+    assert all(("realtime.sh_order" in c) == (c["realtime.diffuse"] == "sh") for c in got)
+    assert not any("realtime.glossy" in c for c in got)  # sphere-diffuse has no glossy effect
+
+
+@pytest.mark.parametrize(("text", "want"), [
+    ("camera.origin=[0,0,4],[0,0,6]", ("camera.origin", [[0, 0, 4], [0, 0, 6]])),
+    ('environment.map="a,b.exr",builtin:uffizi', ("environment.map", ["a,b.exr", "builtin:uffizi"])),
+])
+def test_axis_values_may_hold_commas_inside_brackets_and_quotes(text, want):
+    from experiments.inputs import parse_axis
+
+    assert parse_axis(text) == want

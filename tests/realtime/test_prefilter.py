@@ -8,7 +8,7 @@ import pytest
 
 from groundtruth.reflectance import phong_lobe
 from realtime.context import get_context
-from realtime.cube_seams import seam_residual
+from realtime.cube_seams import seam_residual, smooth_lobes
 from realtime.gpu import EnvironmentFilter
 from realtime.prefilter import PhongPrefilter, phong_convolve_numpy, phong_samples
 from scenes import cubemap, environments
@@ -34,21 +34,6 @@ def prefiltered(cube: moderngl.TextureCube, exponent: float, samples: int, bias:
     out = p.read_level(level)
     p.release()
     return out
-
-
-def smooth_lobes(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """A smooth map (a few wide exponential lobes on a floor) and its spherical Laplacian, per direction.
-
-    For g = a exp(k (mu.w - 1)) with u = mu.w: Laplace-Beltrami g = k^2 (1 - u^2) g - 2 k u g."""
-    f = np.full(d.shape[:-1], 0.2)
-    lap = np.zeros(d.shape[:-1])
-    for mu, k, a in (((0.3, 0.8, -0.5), 4.0, 1.0), ((-0.7, -0.2, 0.4), 8.0, 2.0), ((0.0, -1.0, 0.1), 2.0, 0.5)):
-        mu = np.asarray(mu) / np.linalg.norm(mu)
-        u = d @ mu
-        g = a * np.exp(k * (u - 1.0))
-        f = f + g
-        lap = lap + g * (k * k * (1.0 - u * u) - 2.0 * k * u)
-    return f, lap
 
 
 # ------------------------------------------------------------------------------ numpy halves

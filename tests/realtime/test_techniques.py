@@ -6,6 +6,7 @@ import pytest
 
 import scenes
 from realtime import technique
+from realtime.parameterizations import STORES
 from scenes import SceneError
 from scenes.scene import NOT_IMPLEMENTED, SCHEMA
 
@@ -20,7 +21,8 @@ def choices(key: str) -> list[str]:
 @pytest.mark.parametrize("key", CHOICE_KEYS)
 def test_every_choice_is_a_technique_or_refused_as_not_implemented(key):
     for value in choices(key):
-        implemented = (key, value) in technique.REGISTRY or value in ("none", "cube")
+        implemented = ((key, value) in technique.REGISTRY or value == "none"
+                       or (key == "parameterization" and value in STORES))
         assert implemented != ((key, value) in NOT_IMPLEMENTED), (key, value)
         if implemented and (key, value) in technique.REGISTRY:
             cls = technique.technique_class(key, value)
@@ -51,6 +53,15 @@ def test_not_implemented_values_are_refused_not_ignored(key, value):
     ({"realtime.glossy": "prefiltered", "realtime.lod_bias": 1.0}, ["realtime.lod_bias", "realtime.glossy"]),
     ({"realtime.glossy": "prefiltered", "realtime.lod_mapping": "mcguire"}, ["realtime.lod_mapping",
                                                                                "realtime.glossy"]),
+    ({"realtime.parameterization": "dual_paraboloid", "realtime.glossy": "prefiltered"},
+     ["realtime.glossy", "realtime.parameterization"]),
+    ({"realtime.parameterization": "sphere_map", "realtime.diffuse": "irradiance_map"},
+     ["realtime.diffuse", "realtime.parameterization"]),
+    ({"realtime.sphere_map.capture": [1.0, 0.0, 0.0]}, ["realtime.sphere_map",
+                                                        'realtime.parameterization = "sphere_map"']),
+    ({"realtime.parameterization": "sphere_map", "realtime.sphere_map.capture": [0.0, 0.0, 0.0]},
+     ["realtime.sphere_map.capture", "not all zero"]),
+    ({"realtime.reflection": "per_face"}, ["realtime.reflection", '"per_vertex"']),
     ({"realtime.diffuse": "irradiance_map", "realtime.base_size": 64, "realtime.face_size": 16,
       "realtime.irradiance_map.source_size": 128},
      ["realtime.irradiance_map.source_size", "realtime.base_size"]),
@@ -60,6 +71,25 @@ def test_unused_tables_and_nonsense_combinations_name_both_keys(overrides, names
         scenes.load("builtin:sphere-blend").with_overrides(overrides)
     for name in names:
         assert name in str(err.value)
+
+
+def test_parameterization_keys_are_read_and_described():
+    s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.parameterization": "sphere_map",
+                                                             "realtime.sphere_map.capture": [0, 0, -1],
+                                                             "realtime.reflection": "per_vertex"})
+    assert s.realtime.sphere_map.capture == (0.0, 0.0, -1.0)
+    d = technique.describe(s)
+    assert d["parameterization"] == "sphere_map" and d["sphere_map"] == {"capture": [0.0, 0.0, -1.0]}
+    assert d["reflection"] == "per_vertex"
+    assert scenes.load("builtin:sphere-blend").realtime.sphere_map.capture == "camera"
+
+
+def test_a_small_base_size_needs_no_irradiance_map_source():
+    # the irradiance map's default source_size (32) applies only where the irradiance map runs
+    s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.base_size": 16, "realtime.face_size": 16})
+    assert s.realtime.base_size == 16
+    with pytest.raises(SceneError, match="realtime.irradiance_map.source_size"):
+        s.with_overrides({"realtime.diffuse": "irradiance_map"})
 
 
 def test_a_used_table_is_read():
