@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: setup test test-fast paper lint clean system-deps
+.PHONY: setup test test-fast paper lint clean system-deps mutation shader-mutants
 
 setup: $(STAMP) system-deps
 
@@ -34,3 +34,25 @@ lint: setup
 
 clean:
 	rm -rf $(VENV) .pytest_cache build *.egg-info
+
+# Mutation testing of the core numerical modules (mutmut, configured in pyproject.toml [tool.mutmut]); slow,
+# not in CI. Runs in a scratch copy of the working tree under build/ (git-ignored), so the tree itself is never
+# mutated. `make mutation MUTMUT_ARGS='realtime.levels*'` runs one module's mutants; the summary per module is
+# in build/mutation/mutation-summary.txt.
+MUTATION_DIR := build/mutation
+MUTMUT_ARGS ?=
+$(VENV)/.mutation: pyproject.toml $(STAMP)
+	$(PY) -m pip install --quiet -e '.[dev,mutation]'
+	touch $@
+
+mutation: setup $(VENV)/.mutation
+	rm -rf $(MUTATION_DIR) && mkdir -p $(MUTATION_DIR)
+	git ls-files -co --exclude-standard -z | tar --null -cf - -T - | tar -xf - -C $(MUTATION_DIR)
+	cd $(MUTATION_DIR) && $(abspath $(VENV))/bin/mutmut run $(MUTMUT_ARGS) > mutmut-run.log 2>&1; \
+		tail -c 400 mutmut-run.log; echo; \
+		$(abspath $(PY)) tests/mutants/mutation_summary.py --diffs | tee mutation-summary.txt
+
+# Hand-made GLSL mutants (tests/mutants/shader_mutants.py): each must make the GL tests fail.
+shader-mutants: setup
+	$(PY) tests/mutants/shader_mutants.py
+

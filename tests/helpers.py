@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
+
 
 def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     path = tmp_path / name
@@ -18,3 +20,58 @@ def sphere_scene_text(name: str, environment: str, material: str, size: int, sha
     obj = f'shape = "{shape}"\n' + (object_lines + "\n" if object_lines else "") + f"material = {material}"
     return (f'\nname = "{name}"\n[environment]\n{environment}\n[camera]\norigin = [0.0, 0.0, 4.0]\n'
             f"fov_deg = 32.0\nwidth = {size}\nheight = {size}\n[[objects]]\n{obj}\n{tables}\n")
+
+
+def unit_sphere_hits(camera, margin_px: float = 2.5):
+    """(normals (H, W, 3), views towards the camera, interior mask) where each pixel-centre ray meets the
+    unit sphere at the origin, computed analytically (independent of the mesh and the renderers).
+    `interior`: the ray passes at least `margin_px` pixels inside the silhouette."""
+    import numpy as np
+
+    o = np.asarray(camera.origin, dtype=np.float64)
+    d = camera.pixel_rays()
+    b = d @ o
+    n = o + (-b - np.sqrt(np.maximum(b * b - (o @ o - 1.0), 0.0)))[..., None] * d
+    closest = np.sqrt(np.maximum(o @ o - b * b, 0.0))
+    interior = closest < 1.0 - margin_px * np.radians(camera.fov_deg) / camera.height * np.linalg.norm(o)
+    return n, -d, interior
+
+
+def box_chain(env, base: int) -> list:
+    """The paper's mip chain built here in numpy: level 0 the Mitsuba-convention lookup of every texel
+    direction of a base x base cube (design.md section 2), then 2 x 2 box means down to 1 x 1; float64."""
+    from scenes import cubemap, envmap
+
+    levels = [envmap.lookup(env, cubemap.texel_directions(base)).astype(np.float64)]
+    while levels[-1].shape[1] > 1:
+        f = levels[-1]
+        s = f.shape[1] // 2
+        levels.append(f.reshape(6, s, 2, s, 2, 3).mean(axis=(2, 4)))
+    return levels
+
+
+def bilinear(level: np.ndarray, face: np.ndarray, s: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Bilinear lookup inside one face; `inside`: the 2 x 2 footprint lies on the face."""
+    size = level.shape[1]
+    x, y = s * size - 0.5, t * size - 0.5
+    i0, j0 = np.floor(x).astype(np.int64), np.floor(y).astype(np.int64)
+    fx, fy = (x - i0)[:, None], (y - j0)[:, None]
+    inside = (i0 >= 0) & (j0 >= 0) & (i0 + 1 < size) & (j0 + 1 < size)
+    i, j = np.clip(i0, 0, max(size - 2, 0)), np.clip(j0, 0, max(size - 2, 0))
+    value = (level[face, j, i] * (1 - fx) * (1 - fy) + level[face, j, i + 1] * fx * (1 - fy)
+             + level[face, j + 1, i] * (1 - fx) * fy + level[face, j + 1, i + 1] * fx * fy)
+    return value, inside
+
+
+def trilinear(chain: list[np.ndarray], d: np.ndarray, lod: float) -> tuple[np.ndarray, np.ndarray]:
+    """The chain read at `lod` along directions d (N, 3): bilinear in levels floor(lod) and floor(lod) + 1,
+    linear between them; `inside`: both footprints lie on one face (no seamless blending across edges)."""
+    from scenes import cubemap
+
+    face, s, t = cubemap.direction_to_face(d)
+    lo = int(np.floor(lod))
+    hi = min(lo + 1, len(chain) - 1)
+    w = lod - lo
+    a, inside_a = bilinear(chain[lo], face, s, t)
+    b, inside_b = bilinear(chain[hi], face, s, t)
+    return (1 - w) * a + w * b, inside_a & inside_b

@@ -36,3 +36,20 @@ def masked_psnr(scene, a, b) -> float:
 def pixel_sigma(r1, r2, mask) -> np.ndarray:
     """Per-channel standard deviation of one render's pixel noise, from two independent renders."""
     return np.std((r1.rgb - r2.rgb)[mask], axis=0) / np.sqrt(2.0)
+
+
+def horizon_fraction(cos_nr: np.ndarray, exponent: float, steps: int = 4000) -> np.ndarray:
+    """Fraction of the normalised Phong lobe about r above the horizon of n, for cos(n, r).
+
+    In the lobe's frame (alpha, phi) about r, a direction is above the horizon of n when
+    cos(alpha) cos(t) + sin(alpha) sin(t) cos(phi) > 0, t = angle(n, r): a fraction acos(-cot(alpha) cot(t)) / pi
+    of phi; the lobe's CDF in u = cos^(N+1)(alpha) is uniform, so the mean over u is the midpoint rule below."""
+    u = (np.arange(steps) + 0.5) / steps  # midpoint rule in the lobe's CDF variable
+    cos_a = u ** (1.0 / (exponent + 1.0))
+    sin_a = np.sqrt(np.maximum(0.0, 1 - cos_a**2))
+    c = np.clip(cos_nr, -1, 1)[..., None]
+    s = np.sqrt(np.maximum(0.0, 1 - c**2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = -(cos_a * c) / (sin_a * s)
+    x = np.where(np.isfinite(x), x, np.where(cos_a * c > 0, -np.inf, np.inf))
+    return (np.arccos(np.clip(x, -1, 1)) / np.pi).mean(axis=-1)

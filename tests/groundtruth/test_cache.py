@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -30,18 +29,21 @@ def entries(folder: Path) -> list[Path]:
     return sorted(folder.glob("*.npz"))
 
 
-def test_second_render_reads_the_cache(cache_dir):
+def test_second_render_reads_the_cache(cache_dir, mi, monkeypatch):
     scene = small("builtin:sphere-blend", size=32, spp=16)
-    t0 = time.perf_counter()
     first = groundtruth.render(scene)
-    t1 = time.perf_counter()
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("the second render must come from the cache, not from Mitsuba")
+
+    monkeypatch.setattr(mi, "render", no_render)  # from here on, Mitsuba cannot render at all
     second = groundtruth.render(scene)
-    t2 = time.perf_counter()
     assert first.meta["cache"] == "miss" and second.meta["cache"] == "hit"
-    assert t2 - t1 < t1 - t0
     np.testing.assert_array_equal(first.rgb, second.rgb)
     np.testing.assert_array_equal(first.mask, second.mask)
     assert len(entries(cache_dir)) == 1
+    with pytest.raises(AssertionError, match="from the cache"):  # and the patch did bite: a miss renders
+        groundtruth.render(scene.with_overrides({"reference.seed": 5}))
 
 
 @pytest.mark.parametrize(("overrides", "hit"), [

@@ -20,22 +20,9 @@ import pytest
 import groundtruth
 from experiments import metrics
 from groundtruth import raycast
-from tests.groundtruth.common import furnace_scene
+from tests.groundtruth.common import furnace_scene, horizon_fraction
 
 pytestmark = pytest.mark.mitsuba
-
-
-def horizon_fraction(cos_nr: np.ndarray, exponent: float, steps: int = 4000) -> np.ndarray:
-    """Fraction of the normalised Phong lobe about r above the horizon of n, for cos(n, r)."""
-    u = (np.arange(steps) + 0.5) / steps  # midpoint rule in the lobe's CDF variable
-    cos_a = u ** (1.0 / (exponent + 1.0))
-    sin_a = np.sqrt(np.maximum(0.0, 1 - cos_a**2))
-    c = np.clip(cos_nr, -1, 1)[..., None]
-    s = np.sqrt(np.maximum(0.0, 1 - c**2))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        x = -(cos_a * c) / (sin_a * s)
-    x = np.where(np.isfinite(x), x, np.where(cos_a * c > 0, -np.inf, np.inf))
-    return (np.arccos(np.clip(x, -1, 1)) / np.pi).mean(axis=-1)
 
 
 def expected_phong(scene) -> tuple[np.ndarray, np.ndarray]:

@@ -33,7 +33,8 @@ def test_full_disk_warns_and_returns_the_render(tmp_path, monkeypatch):
     monkeypatch.setattr(cache.tempfile, "mkstemp", no_space)
     with pytest.warns(cache.CacheWarning, match="No space left on device"):
         out = groundtruth.render(tiny())
-    assert np.isfinite(out.rgb).all()
+    # the render itself, unharmed: bit-identical to an uncached render of the same seed (same variant)
+    np.testing.assert_array_equal(out.rgb, groundtruth.render(tiny(), use_cache=False).rgb)
     assert not list((tmp_path / "cache").glob("*.npz"))
 
 

@@ -25,12 +25,23 @@ def test_invalid_pixels_refused_then_sanitized(tmp_path, value, word):
     write_env(tmp_path / "env.exr", rgb)
     path = write_tiny(tmp_path, env="env.exr")
     line = one_error_line(run_cli("render", str(path), "-o", str(tmp_path / "o.exr")))
-    assert "env.exr" in line and "2 " in line and word in line.lower() and "--sanitize" in line, line
+    assert "env.exr" in line and "2 invalid radiance values" in line and "--sanitize" in line, line
+    # the first bad value itself, read from where the message puts it (the fixed text around it says
+    # "NaN, Inf or negative" whatever the value, so a search of the whole line could not fail)
+    assert "first at row 3, column 5, channel G = " in line, line
+    shown = line.split("channel G = ", 1)[1].split(";", 1)[0]
+    assert word in shown.lower(), line
     ok = run_cli("render", str(path), "-o", str(tmp_path / "o.exr"), "--sanitize")
     assert ok.returncode == 0, ok.stderr
     assert "replaced 2" in ok.stderr
     out = scenes.imageio.read_exr(tmp_path / "o.exr")
-    assert np.isfinite(out).all()
+    # sanitized means those pixels are 0: the same image as a map that holds 0 there to begin with
+    rgb[3, 5, 1] = rgb[9, 1, 0] = 0.0
+    write_env(tmp_path / "zeroed.exr", rgb)
+    zeroed_scene = write_tiny(tmp_path, env="zeroed.exr", name="zeroed")
+    zeroed = run_cli("render", str(zeroed_scene), "-o", str(tmp_path / "z.exr"))
+    assert zeroed.returncode == 0, zeroed.stderr
+    np.testing.assert_array_equal(out, scenes.imageio.read_exr(tmp_path / "z.exr"))
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage"])
@@ -87,6 +98,30 @@ def test_single_hot_pixel_of_1e6(tmp_path, material):
     if "diffuse" in material:
         both = rt.mask & q.mask
         assert rt.rgb[both].mean() == pytest.approx(q.rgb[both].mean(), rel=0.05)
+
+
+@pytest.mark.gl
+def test_single_hot_pixel_of_1e6_in_the_glossy_chain(tmp_path):
+    """The glossy image of a 1e6 hot pixel is the numpy box chain read at level 2 (face 64 of base 256)
+    along each mirror direction: the background exactly (0.1, median error 0), the blurred hot spot
+    (3.5e5, 3.5e6 times the background) within 10 % where the tessellated normals steer a steep gradient."""
+    from tests.helpers import box_chain, trilinear, unit_sphere_hits
+
+    rgb = np.full((32, 64, 3), 0.1, np.float32)
+    rgb[10, 20] = 1e6
+    write_env(tmp_path / "env.exr", rgb)
+    scene = scenes.load(write_tiny(tmp_path, env="env.exr", material='{ type = "phong", exponent = 1000.0 }',
+                                   size=32))
+    rt = realtime.render(scene)
+    n, v, interior = unit_sphere_hits(scene.camera)
+    mirror = 2 * np.sum(n * v, axis=-1, keepdims=True) * n - v
+    chain = box_chain(scenes.envmap.read(tmp_path / "env.exr"), 256)
+    expected, inside = trilinear(chain, mirror.reshape(-1, 3), 2.0)
+    expected, inside = expected.reshape(rt.rgb.shape), inside.reshape(rt.mask.shape)
+    sel = interior & rt.mask & inside
+    assert expected[sel].max() > 1e5  # the hot spot is in view
+    rel = np.abs(rt.rgb[sel] - expected[sel]) / expected[sel]
+    assert np.median(rel) < 1e-5 and rel.max() < 0.1, (np.median(rel), rel.max())
 
 
 @pytest.mark.gl

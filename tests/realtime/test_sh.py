@@ -94,3 +94,10 @@ def test_equirect_rotation_matches_rotated_lookup(rotation):
     faces = cubemap.from_equirect(env, 32, rotation)
     np.testing.assert_allclose(sh.project_equirect(env, rotation), sh.project_cube(faces),
                                atol=0.02 * np.abs(sh.project_cube(faces)).max())
+
+
+def test_project_cube_ignores_an_alpha_channel(rng):
+    """GPU read-backs are RGBA: the projection uses R, G, B only (a random alpha changes nothing)."""
+    rgb = rng.random((6, 8, 8, 3))
+    rgba = np.concatenate([rgb, rng.random((6, 8, 8, 1))], axis=-1)
+    np.testing.assert_array_equal(sh.project_cube(rgba), sh.project_cube(rgb))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import cubemap, envmap
+from scenes import cubemap
 
 S3 = 1 / np.sqrt(3)
 # Hand-derived from the OpenGL specification's cube-map table, per face:
@@ -65,11 +65,34 @@ def test_solid_angle_matches_numerical_integration():
         assert omega[j, i] == pytest.approx(numeric, rel=1e-5)
 
 
-def test_from_equirect_uses_the_texel_direction(rng):
-    env = rng.random((32, 64, 3)).astype(np.float32)
-    faces = cubemap.from_equirect(env, 8, rotation_deg=20.0)
-    d = cubemap.texel_directions(8)
-    np.testing.assert_array_equal(faces, envmap.lookup(env, d, 20.0))
+# design.md section 2, written out here: face -> (sc, tc) -> unnormalised direction
+FACE_TABLE = [lambda sc, tc: (1, -tc, -sc), lambda sc, tc: (-1, -tc, sc), lambda sc, tc: (sc, 1, tc),
+              lambda sc, tc: (sc, -1, -tc), lambda sc, tc: (sc, -tc, 1), lambda sc, tc: (-sc, -tc, -1)]
+
+
+@pytest.mark.parametrize("rotation_deg", [0.0, 20.0, -50.0])
+def test_from_equirect_reads_each_texel_direction_in_mitsubas_convention(rotation_deg):
+    """A ramp map (R = row index, G = column index) is reproduced exactly by bilinear lookups, so each texel
+    reads back where its direction lands: R = v (H - 1), G = u W - 0.5, with u = atan2(x, -z) / 2 pi + the
+    rotation / 360 (the map turned by +deg about +Y shows at u - deg / 360) and v = acos(y) / pi."""
+    h, w, size = 33, 72, 8
+    env = np.zeros((h, w, 3), np.float32)
+    env[..., 0] = np.arange(h)[:, None]
+    env[..., 1] = np.arange(w)[None, :]
+    faces = cubemap.from_equirect(env, size, rotation_deg)
+    checked = 0
+    for f in range(6):
+        for j in range(size):
+            for i in range(size):
+                sc, tc = 2 * (i + 0.5) / size - 1, 2 * (j + 0.5) / size - 1  # texel centre, row j is t
+                x, y, z = np.asarray(FACE_TABLE[f](sc, tc), float) / np.linalg.norm(FACE_TABLE[f](sc, tc))
+                u = (np.arctan2(x, -z) / (2 * np.pi) + rotation_deg / 360.0) % 1.0
+                col = u * w - 0.5
+                assert faces[f, j, i, 0] == pytest.approx(np.arccos(y) / np.pi * (h - 1), abs=1e-4)
+                if 0.0 <= col <= w - 1:  # away from the seam, where G wraps from W - 1 to 0
+                    assert faces[f, j, i, 1] == pytest.approx(col, abs=1e-4)
+                    checked += 1
+    assert checked > 0.9 * 6 * size * size
 
 
 def test_box_mip_chain_keeps_the_mean_radiance(rng):

@@ -36,8 +36,10 @@ def test_half_exr_with_bgr_channel_order(tmp_path, hdr_image):
 def test_hdr_round_trip_within_rgbe_precision(tmp_path, hdr_image, rle):
     imageio.write_hdr(tmp_path / "a.hdr", hdr_image, rle=rle)
     out = envmap.read(tmp_path / "a.hdr")
-    # RGBE keeps an 8-bit mantissa relative to the largest channel: error <= 2^-8 of the max
-    tol = hdr_image.max(axis=-1, keepdims=True) * 2.0**-7
+    # RGBE keeps an 8-bit mantissa relative to the largest channel: with max = m 2^e, m in [0.5, 1), one
+    # unit is 2^(e-8) <= 2 max 2^-8, and rounding to nearest errs by at most half a unit: <= 2^-8 of the max
+    # (a truncating encoder errs by up to a whole unit, 2^-7 of the max, and fails). float32 adds 1e-6.
+    tol = hdr_image.max(axis=-1, keepdims=True) * 2.0**-8 * (1 + 1e-6)
     assert np.all(np.abs(out - hdr_image) <= tol)
 
 
@@ -64,6 +66,28 @@ def test_hdr_reader_agrees_with_mitsuba_bitmap(mi):
 def test_pfm_round_trip(tmp_path, hdr_image):
     imageio.write_pfm(tmp_path / "a.pfm", hdr_image)
     np.testing.assert_array_equal(envmap.read(tmp_path / "a.pfm"), hdr_image)
+
+
+@pytest.mark.parametrize(("scale", "dtype"), [(b"-1.0", "<f4"), (b"1.0", ">f4")], ids=["little", "big"])
+def test_pfm_reader_on_hand_written_bytes(tmp_path, scale, dtype):
+    # PFM stores the bottom row first (a negative scale means little-endian): the 2 x 3 image whose pixel
+    # (row r, column c) is (10 r + c, 100 + 10 r + c, 200 + 10 r + c), written out by hand
+    pixels = {(r, c): (10 * r + c, 100 + 10 * r + c, 200 + 10 * r + c) for r in range(2) for c in range(3)}
+    stored = [pixels[(r, c)] for r in (1, 0) for c in range(3)]  # row 1 (the bottom) first
+    body = np.asarray(stored, dtype=dtype).tobytes()
+    (tmp_path / "hand.pfm").write_bytes(b"PF\n3 2\n" + scale + b"\n" + body)
+    out = imageio.read_pfm(tmp_path / "hand.pfm")
+    assert out[0, 0].tolist() == [0.0, 100.0, 200.0] and out[1, 2].tolist() == [12.0, 112.0, 212.0]
+    np.testing.assert_array_equal(out, np.asarray([[pixels[(r, c)] for c in range(3)] for r in range(2)]))
+
+
+@pytest.mark.mitsuba
+def test_pfm_writer_and_reader_against_mitsuba_bitmap(mi, tmp_path, hdr_image):
+    """Mitsuba's Bitmap as the second opinion in both directions (row 0 at the top, channels R, G, B)."""
+    imageio.write_pfm(tmp_path / "ours.pfm", hdr_image)
+    np.testing.assert_array_equal(np.array(mi.Bitmap(str(tmp_path / "ours.pfm"))), hdr_image)
+    mi.Bitmap(hdr_image).write(str(tmp_path / "theirs.pfm"))
+    np.testing.assert_array_equal(imageio.read_pfm(tmp_path / "theirs.pfm"), hdr_image)
 
 
 @pytest.mark.parametrize("suffix,payload,words", [
@@ -95,8 +119,9 @@ def test_invalid_pixels_refused_with_count_and_position(tmp_path, hdr_image):
     bad[7, 0, 0] = -1.0
     bad[9, 9, 2] = np.inf
     envmap.write(tmp_path / "bad.exr", bad)
-    with pytest.raises(EnvMapError, match=r"3 invalid .* row 3, column 5, channel G"):
+    with pytest.raises(EnvMapError, match=r"3 invalid .* row 3, column 5, channel G") as err:
         envmap.read(tmp_path / "bad.exr")
+    assert str(err.value).startswith(f"{tmp_path / 'bad.exr'}: ")  # the message names the file
     with pytest.warns(envmap.SanitizedWarning, match="replaced 3"):
         fixed = envmap.read(tmp_path / "bad.exr", sanitize=True)
     assert np.isfinite(fixed).all() and fixed.min() >= 0 and fixed[3, 5, 1] == 0
@@ -106,3 +131,21 @@ def test_too_large_is_refused_before_reading(tmp_path, hdr_image):
     envmap.write(tmp_path / "a.exr", hdr_image)
     with pytest.raises(EnvMapError, match="too large"):
         envmap.read(tmp_path / "a.exr", max_pixels=100)
+
+
+def test_validate_refuses_by_default_and_checks_the_shape(hdr_image):
+    bad = hdr_image.copy()
+    bad[0, 0, 0] = -1.0
+    with pytest.raises(EnvMapError, match=r"^environment: 1 invalid"):  # refusing is the default
+        envmap.validate(bad)
+    for shape in [(4, 8), (4, 8, 4)]:
+        with pytest.raises(EnvMapError, match=r"expected an \(H, W, 3\) RGB image"):
+            envmap.validate(np.ones(shape, np.float32))
+
+
+def test_two_rows_are_the_least_an_equirect_map_needs(tmp_path):
+    envmap.write(tmp_path / "two.exr", np.ones((2, 4, 3), np.float32))
+    assert envmap.read(tmp_path / "two.exr").shape == (2, 4, 3)
+    envmap.write(tmp_path / "one.exr", np.ones((1, 4, 3), np.float32))
+    with pytest.raises(EnvMapError, match="needs at least 2 rows, got 1"):
+        envmap.read(tmp_path / "one.exr")
