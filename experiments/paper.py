@@ -34,7 +34,7 @@ import numpy as np
 from . import metrics, plots
 from .report import Section, figure, md_table, paragraph, table
 from .results import RESULTS, ResultRow, folder_lock, store_in
-from .sweep import row_id, run_row
+from .sweep import row_id, run_row, with_equal_quality
 
 
 @dataclass(frozen=True)
@@ -86,6 +86,11 @@ class Suite:
             self.store.append(self.done[rid])
         elif rid not in self.used:
             self.reused += 1
+        if curve is not None and self.done[rid].equal_quality is None:
+            # the same configuration measured by another experiment (rows are keyed by content): add
+            # the path tracer's time to its quality from this curve, without rendering it again
+            self.done[rid] = with_equal_quality(self.done[rid], curve)
+            self.store.rewrite(list(self.done.values()))
         if rid not in self.used:
             self.used.append(rid)
         self.progress()

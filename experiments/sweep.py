@@ -279,13 +279,7 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, c.reference, c.mask)
     m = c.metrics
-    eq_s, eq_how = None, None
-    if convergence_curve is not None:
-        from . import convergence
-
-        target = m["psnr_unbiased"] if m["psnr_unbiased"] is not None else m["psnr"]
-        eq_s, eq_how = convergence.equal_quality_s(convergence_curve, target)
-    return ResultRow(
+    row = ResultRow(
         id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=technique.describe(scene),
         materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
         unsimulated_effects=m["unsimulated_effects"], width=scene.camera.width, height=scene.camera.height,
@@ -293,9 +287,22 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
         noise_floor_psnr=m["noise_floor_psnr"], at_noise_floor=m["at_noise_floor"], pixels=m["pixels"],
         realtime_ms=m["realtime_ms"], reference_s=m["reference_s"], reference_spp=m["reference_spp"],
         reference_id=ref_id, reference_cache=m["reference_cache"], psnr_unbiased=m["psnr_unbiased"],
-        psnr_unbiased_clamped=m["psnr_unbiased_clamped"], equal_quality_s=eq_s, equal_quality=eq_how,
+        psnr_unbiased_clamped=m["psnr_unbiased_clamped"],
         realtime_p90_ms={k: test.timings.get(f"{k}_p90") for k in m["realtime_ms"] if k != "precompute"},
         experiment=experiment, images=pics, extra=extra or {})
+    return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
+
+
+def with_equal_quality(row: ResultRow, curve) -> ResultRow:
+    """`row` with `equal_quality_s`: the path tracer's time to the row's unbiased PSNR (its plain PSNR
+    where that is undefined) on a reference convergence curve (experiments.convergence.curve)."""
+    from dataclasses import replace
+
+    from . import convergence
+
+    target = row.psnr_unbiased if row.psnr_unbiased is not None else row.psnr
+    seconds, how = convergence.equal_quality_s(curve, target)
+    return replace(row, equal_quality_s=seconds, equal_quality=how)
 
 
 def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = None,
