@@ -42,12 +42,11 @@ def glossy_lod_unclamped(face_size: int, base_size: int, lod_bias: float, mappin
 
 
 def glossy_lod(face_size: int, base_size: int, lod_bias: float, mapping: str, exponent: float) -> float:
-    """The LOD of the paper's glossy lookup, clamped to the chain: level(s) + offset(N) + bias, offset 0
-    for the paper's mapping and `mcguire_offset` for McGuire's. The only place this formula lives: the
-    shader receives it as the uniform `glossy_lod` (realtime/glossy_box.py)."""
-    offset = mcguire_offset(face_size, exponent) if mapping == "mcguire" else 0.0
-    max_lod = math.log2(base_size)
-    return min(max(level_of(face_size, base_size) + offset + lod_bias, 0.0), max_lod)
+    """The LOD of the paper's glossy lookup: level(s) + offset(N) + bias (`glossy_lod_unclamped`, the
+    only place the formula lives; offset 0 for the paper's mapping, `mcguire_offset` for McGuire's),
+    clamped to [0, log2(base)]. The shader receives it as the uniform `glossy_lod` (realtime/glossy_box.py)."""
+    unclamped = glossy_lod_unclamped(face_size, base_size, lod_bias, mapping, exponent)
+    return min(max(unclamped, 0.0), math.log2(base_size))
 
 
 #: texels per lobe width at which a prefiltered chain is read: the texel spacing 2/w (radians, at a

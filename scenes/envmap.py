@@ -63,7 +63,7 @@ def validate(rgb: np.ndarray, name: str = "environment", sanitize: bool = False)
         r, c, ch = (int(i) for i in np.argwhere(bad)[0])
         raise EnvMapError(
             f"{name}: {count} invalid radiance values (NaN, Inf or negative); first at row {r}, "
-            f"column {c}, channel {'RGB'[ch]} = {rgb[r, c, ch]!r}; pass --sanitize to replace them with 0"
+            f"column {c}, channel {'RGB'[ch]} = {float(rgb[r, c, ch])!r}; pass --sanitize to replace them with 0"
         )
     rgb = np.where(bad, np.float32(0.0), rgb)
     warnings.warn(f"{name}: replaced {count} invalid radiance values (NaN, Inf or negative) with 0",

@@ -175,3 +175,9 @@ def test_common_mask_erodes_one_pixel_by_default_and_at_the_image_border():
     # the AND of two masks given as 0/1 numbers
     np.testing.assert_array_equal(metrics.common_mask(full.astype(int), np.zeros((6, 6), int), erode=0),
                                   np.zeros((6, 6), bool))
+
+
+def test_rel_mse_default_epsilon_by_hand():
+    # Rousselle et al.'s eps defaults to 1e-2: (0.6 - 0.5)^2 / (0.5^2 + 0.01) = 0.01 / 0.26
+    ref = np.full((2, 2, 3), 0.5)
+    assert metrics.rel_mse(ref + 0.1, ref, np.ones((2, 2), bool)) == pytest.approx(0.01 / 0.26, rel=1e-12)

@@ -57,13 +57,15 @@ def test_auto_leaves_a_non_ringing_probe_alone():
     coeffs = sh.project_equirect(environments.builtin("uffizi", {}))
     choice = deringing.choose("auto", coeffs)
     assert choice.kind == "none" and choice.factors == (1.0, 1.0, 1.0) and choice.min_before >= 0
+    assert choice.min_after == choice.min_before  # no window: nothing changes
 
 
 @pytest.mark.parametrize("kind", ["hanning", "lanczos"])
 def test_named_windows_reduce_the_ringing(kind):
     coeffs = sh.project_equirect(sky(1e4))
     choice = deringing.choose(kind, coeffs)
-    assert choice.cutoff == deringing.NAMED_CUTOFF
+    assert choice.kind == kind and choice.cutoff == deringing.NAMED_CUTOFF
+    np.testing.assert_allclose(choice.factors, deringing.window(kind, deringing.NAMED_CUTOFF))
     assert choice.min_after > choice.min_before
 
 

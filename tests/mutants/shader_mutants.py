@@ -34,6 +34,8 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "ignore the LOD bias (host side: the glossy LOD reaches the shader as the uniform glossy_lod)"),
     ("realtime/shaders/glossy_box.glsl", "textureLod(env_cube, r, glossy_lod)", "textureLod(env_cube, r, 0.0)",
      "glossy lookup ignores its LOD (reads the base level)"),
+    ("realtime/shaders/shade.frag", "if (dot(n, v) <= 0.0) {", "if (dot(n, v) <= -2.0) {",
+     "drop the back-face rule (issue 11: one-sided materials are black where n.v <= 0)"),
     ("realtime/shaders/shade.frag", "pow(1.0 - n_dot_v, 5.0)", "(1.0 - n_dot_v)",
      "drop the Fresnel power (Schlick's ^5)"),
     ("realtime/shaders/shade.frag", "color = (1.0 - F) * Ld + F * Lg;", "color = F * Ld + (1.0 - F) * Lg;",

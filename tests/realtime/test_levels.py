@@ -80,3 +80,15 @@ def test_mcguire_offset_by_hand(face_size, exponent, offset):
 ])
 def test_glossy_lod_by_hand(face_size, base, bias, mapping, exponent, lod):
     assert levels.glossy_lod(face_size, base, bias, mapping, exponent) == pytest.approx(lod, abs=1e-9)
+
+
+@pytest.mark.parametrize(("face_size", "base", "bias", "mapping", "exponent", "lod"), [
+    (64, 256, 3.0, "mcguire", 100.0, 8.463375508985),   # 2 + 3.463375508985 + 3, not clamped to 8
+    (64, 256, -3.0, "paper", 100.0, -1.0),              # 2 - 3, not clamped to 0
+    (8, 64, 0.5, "mcguire", 10.0, 5.562765441041),      # 3 + 2.062765441041 + 0.5
+])
+def test_glossy_lod_unclamped_by_hand(face_size, base, bias, mapping, exponent, lod):
+    """The same sum before the cube's clamp (a 2D parameterization clamps to its own chain)."""
+    if not hasattr(levels, "glossy_lod_unclamped"):
+        pytest.skip("no glossy_lod_unclamped in this version of realtime.levels")
+    assert levels.glossy_lod_unclamped(face_size, base, bias, mapping, exponent) == pytest.approx(lod, abs=1e-9)

@@ -70,7 +70,7 @@ FACE_TABLE = [lambda sc, tc: (1, -tc, -sc), lambda sc, tc: (-1, -tc, sc), lambda
               lambda sc, tc: (sc, -1, -tc), lambda sc, tc: (sc, -tc, 1), lambda sc, tc: (-sc, -tc, -1)]
 
 
-@pytest.mark.parametrize("rotation_deg", [0.0, 20.0, -50.0])
+@pytest.mark.parametrize("rotation_deg", [0.0, 1.0, 20.0, -50.0])
 def test_from_equirect_reads_each_texel_direction_in_mitsubas_convention(rotation_deg):
     """A ramp map (R = row index, G = column index) is reproduced exactly by bilinear lookups, so each texel
     reads back where its direction lands: R = v (H - 1), G = u W - 0.5, with u = atan2(x, -z) / 2 pi + the

@@ -102,3 +102,15 @@ def test_mitsuba_to_world_equals_mitsubas_look_at(mi):
     cam = Camera(origin=(1.0, 2.0, 3.0), target=(0.1, -0.2, 0.3), up=(0.0, 1.0, 0.2))
     theirs = np.array(mi.ScalarTransform4f().look_at(origin=cam.origin, target=cam.target, up=cam.up).matrix)
     np.testing.assert_allclose(cam.mitsuba_to_world(), theirs, atol=1e-6)
+
+
+def test_projection_maps_near_and_far_to_the_depth_range():
+    """gluPerspective: a view-space point on the axis at distance near lands at NDC z = -1, at far at +1,
+    and halfway in 1/z (2 near far / (near + far)) at 0."""
+    cam = Camera(fov_deg=40.0, width=64, height=48)
+    near, far = 0.5, 20.0
+    P = cam.projection_matrix(near, far)
+    for dist, ndc_z in [(near, -1.0), (far, 1.0), (2 * near * far / (near + far), 0.0)]:
+        clip = P @ np.array([0.0, 0.0, -dist, 1.0])
+        assert clip[2] / clip[3] == pytest.approx(ndc_z, abs=1e-12)
+
