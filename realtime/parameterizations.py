@@ -35,6 +35,7 @@ from scenes.shbasis import count, glsl_defines
 
 from . import levels
 from .gpu import EnvironmentFilter, groups, mat_bytes, sh9_defines, shader_source
+from .sh_orders import project_and_reduce
 
 #: the 2D parameterizations by their `realtime.parameterization` value (cube: realtime.gpu)
 MAPPINGS: dict[str, ModuleType] = {"dual_paraboloid": paraboloid, "sphere_map": spheremap}
@@ -42,7 +43,6 @@ MAPPINGS: dict[str, ModuleType] = {"dual_paraboloid": paraboloid, "sphere_map": 
 STORES = ("cube", *MAPPINGS)
 #: the GLSL define that selects each mapping in env_map.glsl
 DEFINES = {"dual_paraboloid": "ENV_DUAL_PARABOLOID", "sphere_map": "ENV_SPHERE_MAP"}
-PARTIALS_BINDING, RESULT_BINDING = 1, 2
 TEXEL_DIR_UNIT = 1
 
 
@@ -124,14 +124,8 @@ class MapShProjector:
         self.project_prog["texel_dir"] = TEXEL_DIR_UNIT
         self.project_prog["size"] = size
         self.project_prog["block"] = block
-        partial.bind_to_storage_buffer(PARTIALS_BINDING)
-        self.project_prog.run(tiles, tiles, store.layers)
-        self.ctx.memory_barrier()
-        self.reduce_prog["n_groups"] = n_groups
-        self.reduce_prog["window"].write(sigma.astype("f4").tobytes())
-        self.buffer.bind_to_storage_buffer(RESULT_BINDING)
-        self.reduce_prog.run(1, 1, 1)
-        self.ctx.memory_barrier()
+        project_and_reduce(self.ctx, self.project_prog, self.reduce_prog, partial, self.buffer, tiles, store.layers,
+                           n_groups, sigma)
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """(coeffs (n, 3), weighted (n, 3)) as last computed (not for `paper=True`)."""

@@ -97,14 +97,8 @@ class ShProjector:
         self.project_prog["solid_angle"] = SOLID_ANGLE_UNIT
         self.project_prog["size"] = face_size
         self.project_prog["block"] = block
-        partial.bind_to_storage_buffer(PARTIALS_BINDING)
-        self.project_prog.run(tiles, tiles, 6)
-        self.ctx.memory_barrier()
-        self.reduce_prog["n_groups"] = n_groups
-        self.reduce_prog["window"].write(sigma.astype("f4").tobytes())
-        self.buffer.bind_to_storage_buffer(RESULT_BINDING)
-        self.reduce_prog.run(1, 1, 1)
-        self.ctx.memory_barrier()
+        project_and_reduce(self.ctx, self.project_prog, self.reduce_prog, partial, self.buffer, tiles, 6, n_groups,
+                           sigma)
 
     def read(self) -> tuple[np.ndarray, np.ndarray]:
         """(coeffs (n, 3), weighted (n, 3)) as last computed, float64."""
@@ -118,3 +112,17 @@ class ShProjector:
         self._solid_angle.clear()
         self._partials.clear()
 
+
+def project_and_reduce(ctx: moderngl.Context, project_prog, reduce_prog, partial, result, tiles: int, layers: int,
+                       n_groups: int, sigma: np.ndarray) -> None:
+    """The two passes of a GPU SH projection whose level, texel weights and uniforms are bound: per-workgroup
+    partial sums into `partial`, then one workgroup reduces them, applies the band window `sigma` and
+    writes coefficients and reconstruction weights into `result` (shared by the cube and the 2D maps)."""
+    partial.bind_to_storage_buffer(PARTIALS_BINDING)
+    project_prog.run(tiles, tiles, layers)
+    ctx.memory_barrier()
+    reduce_prog["n_groups"] = n_groups
+    reduce_prog["window"].write(np.asarray(sigma, dtype="f4").tobytes())
+    result.bind_to_storage_buffer(RESULT_BINDING)
+    reduce_prog.run(1, 1, 1)
+    ctx.memory_barrier()
