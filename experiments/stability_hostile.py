@@ -20,6 +20,7 @@ from pathlib import Path
 import numpy as np
 
 from . import hostile
+from .stability import _error_of
 from .text import visible
 
 
@@ -409,11 +410,3 @@ class HostileCases:
 
     def parts(self) -> list[Callable[[], list[dict]]]:
         return [self.escaping, self.output_paths, self.exit_codes, self.misreads, self.back_faces, self.stale_sweeps]
-
-
-def _error_of(fn: Callable[[], object]) -> str:
-    try:
-        fn()
-    except Exception as exc:  # the message is the outcome being reported
-        return f"{type(exc).__name__}: {exc}"
-    return "no error"

@@ -55,6 +55,22 @@ def world_to_env(rotation_deg: float) -> np.ndarray:
     return rotation_y(rotation_deg).T  # inverse of the environment's to_world rotation
 
 
+def fill_from_equirect(ctx: moderngl.Context, prog, env_tex, texel_uv, target, size: int, layers: int,
+                       rotation_deg: float) -> None:
+    """Level 0 of an environment store (cube faces or 2D map layers) from the equirect map turned by
+    `rotation_deg` about +Y: a turn only shifts the map's u, so each texel's precomputed (u, v) in
+    `texel_uv` plus the shift gives its lookup (env_to_cube.comp, map_fill.comp)."""
+    env_tex.use(0)
+    texel_uv.use(1)
+    prog["env"] = 0
+    prog["texel_uv"] = 1
+    prog["u_shift"] = (rotation_deg / 360.0) % 1.0
+    prog["size"] = size
+    target.bind_to_image(0, read=False, write=True, level=0)
+    prog.run(groups(size), groups(size), layers)
+    ctx.memory_barrier()
+
+
 def groups(n: int, local: int = 8) -> int:
     return (n + local - 1) // local
 
@@ -89,15 +105,8 @@ class EnvironmentFilter:
 
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
-        self.env_tex.use(0)
-        self.texel_uv.use(1)
-        self.fill_prog["env"] = 0
-        self.fill_prog["texel_uv"] = 1
-        self.fill_prog["u_shift"] = (rotation_deg / 360.0) % 1.0
-        self.fill_prog["size"] = self.base_size
-        self.cube.bind_to_image(0, read=False, write=True, level=0)
-        self.fill_prog.run(groups(self.base_size), groups(self.base_size), 6)
-        self.ctx.memory_barrier()
+        fill_from_equirect(self.ctx, self.fill_prog, self.env_tex, self.texel_uv, self.cube, self.base_size, 6,
+                           rotation_deg)
 
     def build_chain(self, down_to_level: int | None = None) -> None:
         """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""

@@ -34,7 +34,7 @@ from scenes.directions import direction_to_uv
 from scenes.shbasis import count, glsl_defines
 
 from . import levels
-from .gpu import EnvironmentFilter, groups, mat_bytes, sh9_defines, shader_source
+from .gpu import EnvironmentFilter, fill_from_equirect, groups, mat_bytes, sh9_defines, shader_source
 from .sh_orders import project_and_reduce
 
 #: the 2D parameterizations by their `realtime.parameterization` value (cube: realtime.gpu)
@@ -190,15 +190,8 @@ class MapStore:
 
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
-        self.env_tex.use(0)
-        self.texel_uv.use(1)
-        self.fill_prog["env"] = 0
-        self.fill_prog["texel_uv"] = 1
-        self.fill_prog["u_shift"] = (rotation_deg / 360.0) % 1.0
-        self.fill_prog["size"] = self.size
-        self.texture.bind_to_image(0, read=False, write=True, level=0)
-        self.fill_prog.run(groups(self.size), groups(self.size), self.layers)
-        self.ctx.memory_barrier()
+        fill_from_equirect(self.ctx, self.fill_prog, self.env_tex, self.texel_uv, self.texture, self.size,
+                           self.layers, rotation_deg)
 
     def build_chain(self, down_to_level: int | None = None) -> None:
         """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""
