@@ -82,6 +82,18 @@ def input_problem(path: str | Path) -> str | None:
     return None
 
 
+def read_input(path: Path, kind: str, limit: int, error: type[Exception]) -> bytes:
+    """The bytes of an input file (`kind`: "scene file", "mesh file", ...): a readable regular file of at
+    most `limit` bytes, else `error` naming the path and what is wrong."""
+    problem = input_problem(path)
+    if problem:
+        raise error(f"{path}: {kind} {problem}")
+    size = path.stat().st_size
+    if size > limit:
+        raise error(f"{path}: {kind} of {size} bytes, more than the limit of {limit}")
+    return path.read_bytes()
+
+
 def output_mode() -> int:
     return 0o666 & ~_UMASK
 

@@ -431,19 +431,13 @@ def load_file(path: str | Path) -> Mesh:
 
     Every problem is a MeshError naming the file and, where there is one, the line or element: no
     message carries Python's own text ("list index out of range")."""
-    from .files import input_problem
+    from .files import read_input
 
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".obj", ".ply"):
         raise MeshError(f"{path}: unsupported mesh format {suffix!r} (use .obj or .ply)")
-    problem = input_problem(path)
-    if problem:
-        raise MeshError(f"{path}: mesh file {problem}")
-    size = path.stat().st_size
-    if size > MAX_MESH_BYTES:
-        raise MeshError(f"{path}: mesh file of {size} bytes, more than the limit of {MAX_MESH_BYTES}")
-    data = path.read_bytes()
+    data = read_input(path, "mesh file", MAX_MESH_BYTES, MeshError)
     return _load_obj(path, data) if suffix == ".obj" else _load_ply(path, data)
 
 

@@ -26,7 +26,7 @@ import numpy as np
 from . import environments, materials, meshes
 from .camera import Camera
 from .errors import InputError, SceneError
-from .files import input_problem, short_repr
+from .files import input_problem, read_input, short_repr
 
 BUILTIN_PREFIX = "builtin:"
 MATERIAL_TYPES = materials.NAMES
@@ -460,13 +460,7 @@ def load(path_or_builtin: str | Path) -> Scene:
 
 def _read_scene_text(path: Path) -> str:
     """The text of a scene file: a readable regular file of UTF-8 text, not too large."""
-    problem = input_problem(path)
-    if problem:
-        raise SceneError(f"{path}: scene file {problem}")
-    size = path.stat().st_size
-    if size > MAX_SCENE_BYTES:
-        raise SceneError(f"{path}: scene file of {size} bytes; a scene file is at most {MAX_SCENE_BYTES} bytes")
-    data = path.read_bytes()
+    data = read_input(path, "scene file", MAX_SCENE_BYTES, SceneError)
     try:
         text = data.decode("utf-8")
     except UnicodeDecodeError as exc:

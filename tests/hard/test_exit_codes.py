@@ -279,7 +279,7 @@ def test_a_huge_scene_file_is_refused_before_parsing(tmp_path, capsys, monkeypat
     monkeypatch.setattr(scene, "MAX_SCENE_BYTES", 100)
     path = tiny_scene(tmp_path)
     path.write_text(path.read_text() + "#" * 200)
-    assert "at most 100 bytes" in refused(capsys, ["render", str(path)])
+    assert "more than the limit of 100" in refused(capsys, ["render", str(path)])
 
 
 # --------------------------------------------------------------------------- Ctrl-C
