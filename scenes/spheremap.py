@@ -115,9 +115,3 @@ def direction_to_texel(d: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray
     layer, x, y = direction_to_position(d)
     row, col = discmap.position_to_texel(x, y, size)
     return layer, row, col
-
-
-def sample_nearest(maps: np.ndarray, d: np.ndarray) -> np.ndarray:
-    """Nearest-texel lookup of maps (1, size, size, C) along directions in the map's frame."""
-    layer, row, col = direction_to_texel(d, maps.shape[1])
-    return maps[layer, row, col]
