@@ -16,6 +16,7 @@ bounded length).
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 import traceback
 import warnings
@@ -47,6 +48,21 @@ def threshold(key: str):
             value = None
         if value is None or check(value) is None:
             raise argparse.ArgumentTypeError(f"{text!r}: must be {allowed}")
+        return value
+
+    return parse
+
+
+def tolerance(flag: str, positive: bool = False):
+    """An argparse type for a baseline tolerance: a finite number >= 0 (> 0 with `positive`)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or value < 0 or (positive and value == 0):
+            raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number {'> 0' if positive else '>= 0'}")
         return value
 
     return parse
@@ -99,6 +115,20 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--min-ssim", type=threshold("min_ssim"))
     g.add_argument("--max-flip", type=threshold("max_flip"))
     g.add_argument("--junit", help="write JUnit XML here (one test case per scene)")
+    g.add_argument("--markdown", metavar="FILE", help="write a short Markdown table here (for a pull-request comment)")
+    g.add_argument("--baseline", metavar="FILE", help="fail when a scene got worse than its record in FILE "
+                   "(beyond the reference's noise; see --tolerance-*) or is not in it")
+    g.add_argument("--write-baseline", metavar="FILE", help="record every scene's metrics, timings and identity "
+                   "in FILE (JSON)")
+    g.add_argument("--tolerance-db", type=tolerance("--tolerance-db"), metavar="DB",
+                   help="with --baseline: the PSNR drop allowed, instead of the noise-aware rule")
+    g.add_argument("--tolerance-ssim", type=tolerance("--tolerance-ssim"), metavar="X",
+                   help="with --baseline: the SSIM drop allowed, instead of the noise-aware rule")
+    g.add_argument("--tolerance-flip", type=tolerance("--tolerance-flip"), metavar="X",
+                   help="with --baseline: the FLIP rise allowed, instead of the noise-aware rule")
+    g.add_argument("--max-time-ratio", type=tolerance("--max-time-ratio", positive=True), metavar="R",
+                   help="with --baseline: fail when the frame time exceeds R times the baseline's "
+                        "(reported, never failed, without it)")
     g.add_argument("--set", action="append", metavar="K=V")
     g.set_defaults(func=_cmd_gate)
 
@@ -122,10 +152,11 @@ def _cmd_render(args: argparse.Namespace) -> int:
 def _cmd_compare(args: argparse.Namespace) -> int:
     import json
 
-    from . import comparison
+    from . import comparison, gate, outputs
 
     scene = load_scene(args.scene, args.set, args.sanitize)
-    result = comparison.run(scene).metrics
+    with outputs.progress("compare", 4) as step:
+        result = gate.measure(scene, step, noise=False).metrics
     if result["pixels"] == 0:
         print(f"warning: {one_line(scene.name)}: no pixel is covered in both images (is the object outside the "
               "view?); the image metrics are undefined (null)", file=sys.stderr)
@@ -153,13 +184,29 @@ def _cmd_gate(args: argparse.Namespace) -> int:
     from . import gate, outputs
 
     cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
+    tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
+                  "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
+    given = [f"--{k.replace('_', '-')}" for k, v in tolerances.items() if v is not None]
+    if given and not args.baseline:
+        raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
     with outputs.Outputs() as plan:
-        loaded = gate.load(args.scenes, cli, parse_sets(args.set))
+        baseline = gate.read_baseline(args.baseline) if args.baseline else None
+        loaded = gate.load(args.scenes, cli, parse_sets(args.set),
+                           thresholds_required=not (args.baseline or args.write_baseline))
         junit = plan.file(args.junit, "--junit") if args.junit else None
-        results = gate.compare_all(loaded)
+        md = plan.file(args.markdown, "--markdown") if args.markdown else None
+        record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
+        with outputs.progress("gate", 4 * len(loaded)) as step:
+            results = gate.compare_all(loaded, baseline, tolerances, step)
+        for line in gate.warning_lines(results, baseline):
+            print(line, file=sys.stderr)
         print(gate.format_table(results))
         if junit:
             gate.write_junit(junit, results)
+        if md:
+            gate.write_markdown(md, results, baseline)
+        if record:
+            gate.write_baseline(record, results)
     return EXIT_OK if all(r.passed for r in results) else EXIT_GATE_FAILED
 
 
@@ -191,7 +238,8 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 
 #: options whose value is a list that may start with a minus sign (`--lod-biases -1,0,1`)
 LIST_OPTIONS = ("--face-sizes", "--lod-biases", "--exponents", "--f0s", "--envs", "--lod-mappings", "--axis",
-                "--set", "--min-psnr", "--min-ssim", "--max-flip")
+                "--set", "--min-psnr", "--min-ssim", "--max-flip", "--tolerance-db", "--tolerance-ssim",
+                "--tolerance-flip", "--max-time-ratio")
 
 
 def join_negative_values(argv: list[str]) -> list[str]:

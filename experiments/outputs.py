@@ -8,6 +8,8 @@
   a failure (Ctrl-C included) leaves the old file or none, never half a file or a temporary one.
 - `slug(name)` is the file-name form of a scene name for default output names: `name = "../../x"`
   or an absolute name cannot leave the folder it is written in.
+- `progress(label, total)`: a progress bar for long work on stderr, and nothing at all when stderr is
+  not a terminal (CI logs, pipes, tests), so stdout stays the command's result alone.
 """
 
 from __future__ import annotations
@@ -16,15 +18,17 @@ import contextlib
 import os
 import re
 import stat
+import sys
 import tempfile
 import unicodedata
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from scenes.files import write_bytes as _write_bytes
 
 from .inputs import UsageError
 
-__all__ = ["Outputs", "slug", "write_bytes", "write_text"]
+__all__ = ["Outputs", "progress", "slug", "write_bytes", "write_text"]
 
 
 def slug(name: str, limit: int = 64) -> str:
@@ -43,6 +47,47 @@ def write_bytes(path: Path, data: bytes) -> None:
 
 def write_text(path: Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
+
+
+@contextlib.contextmanager
+def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], None]]:
+    """A progress bar of `total` steps on `stream` (default: sys.stderr at the time of the call).
+
+    Yields `step(text)`: it counts the step begun before (if any) as done and shows `text` (user text:
+    made visible and cut to one line, never read as rich markup) as the one now running; leaving the
+    block counts the last. When `stream` is not a terminal, `step` does nothing and nothing is
+    written, so CI logs and pipes never see the bar. The bar is transient: it is gone when the block
+    ends, leaving the terminal to the command's own output.
+    """
+    from .text import one_line
+
+    stream = sys.stderr if stream is None else stream
+    try:
+        interactive = stream.isatty()
+    except (AttributeError, ValueError):  # a closed or file-like stream
+        interactive = False
+    if not interactive:
+        yield lambda text: None
+        return
+    from rich import progress as rp
+    from rich.console import Console
+
+    columns = [rp.TextColumn(f"[bold]{label}"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
+               rp.TextColumn("{task.description}", markup=False)]
+    with rp.Progress(*columns, console=Console(file=stream), transient=True, refresh_per_second=4) as bar:
+        task = bar.add_task("", total=total)
+        begun = False
+
+        def step(text: str) -> None:
+            nonlocal begun
+            if begun:
+                bar.advance(task)
+            begun = True
+            bar.update(task, description=one_line(text, 120))
+
+        yield step
+        if begun:
+            bar.advance(task)
 
 
 def _why(exc: Exception) -> str:

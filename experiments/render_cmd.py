@@ -3,7 +3,8 @@
 Without `-o`, OUT is `<slug of the scene name>-<renderer>.exr` in the working directory (a slug
 keeps letters, digits, '.', '_' and '-': a scene named "../../x" writes ./x-realtime.exr). Both
 output files are checked before the render (experiments/outputs.py) and written atomically; an
-output that is the scene file, its map or a mesh of it is refused.
+output that is the scene file, its map or a mesh of it is refused. While it renders, a progress line
+with the elapsed time is shown on stderr when that is a terminal (outputs.progress).
 """
 
 from __future__ import annotations
@@ -73,7 +74,9 @@ def run(args: argparse.Namespace) -> int:
     out = Path(args.out) if args.out else default_out(scene, args.renderer)
     with outputs.Outputs() as plan:
         check_out(plan, out, scene)
-        result = render_with(args.renderer, scene)
+        with outputs.progress("render", 1) as step:
+            step(f"{args.renderer}: {scene.name}")
+            result = render_with(args.renderer, scene)
         write_outputs(out, scene, result)
     shown = ("variant", "spp", "seed", "integrator", "model", "face_size", "cache", "techniques",
              "unsimulated_effects")
