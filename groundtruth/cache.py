@@ -61,6 +61,8 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
         "max_depth": ref.max_depth if integrator == "path" else 2,
         "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
     }
+    if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
+        desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count]
     h.update(json.dumps(desc, sort_keys=True).encode())
     for obj in scene.objects:
         for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):

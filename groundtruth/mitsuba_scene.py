@@ -2,6 +2,10 @@
 
 - Environment: the `envmap` emitter made from the very array `Environment.radiance()` returns
   (scale already applied), turned about +Y by `to_world = rotate([0, 1, 0], rotation_deg)`.
+  With `reference.lighting = "light_array"`: instead, the real-time side's light array
+  (scenes/light_array.py, the same placement and powers) as N `directional` emitters, light i with
+  `irradiance` = its power and `direction` = -l_i (Mitsuba's is the direction the light travels),
+  picked in proportion to its power (`sampling_weight`).
 - Camera: `perspective` with `fov_axis = 'y'` and `Camera.mitsuba_to_world()` (Mitsuba's film +X
   points left, see camera.py); `hdrfilm` RGBA with a box filter (the default gaussian blurs).
 - Objects: `mi.Mesh` built from the same float32 vertices, normals and indices the real-time side
@@ -110,11 +114,31 @@ def emitter_dict(mi, scene, env: np.ndarray) -> dict:
             "to_world": mi.ScalarTransform4f().rotate([0, 1, 0], float(scene.environment.rotation_deg))}
 
 
+def light_array_emitters(scene, env: np.ndarray) -> dict:
+    """The scene's light array as Mitsuba `directional` emitters (world directions: the map's rotation)."""
+    from scenes import light_array
+    from scenes.directions import rotation_y
+
+    params = scene.realtime.lights
+    array = light_array.make(env, params.placement, params.count)
+    world = array.directions @ rotation_y(scene.environment.rotation_deg).T
+    # emitters are picked in proportion to their power (Mitsuba's sampling_weight), not uniformly: with
+    # hundreds of lights of very different power, uniform picking is the noise of the reference
+    return {f"light{i}": {"type": "directional", "direction": (-d).tolist(),
+                          "irradiance": {"type": "rgb", "value": p.tolist()},
+                          "sampling_weight": float(max(p.mean(), 1e-12 * array.powers.mean()))}
+            for i, (d, p) in enumerate(zip(world, array.powers, strict=True)) if p.max() > 0.0}
+
+
 def build(mi, scene, env: np.ndarray, spp: int, seed: int, hide_emitters: bool = False):
     """The loaded `mi.Scene` (the reference when hide_emitters is False, the coverage pass when True)."""
     paper_bsdf.register(mi)
     tree = {"type": "scene", "integrator": integrator_dict(scene, hide_emitters),
-            "sensor": sensor_dict(mi, scene, spp, seed), "env": emitter_dict(mi, scene, env)}
+            "sensor": sensor_dict(mi, scene, spp, seed)}
+    if scene.reference.lighting == "light_array":
+        tree.update(light_array_emitters(scene, env))
+    else:
+        tree["env"] = emitter_dict(mi, scene, env)
     for i, obj in enumerate(scene.objects):
         bsdf = mi.load_dict(bsdf_dict(scene, obj.material))
         tree[f"object{i}"] = make_mesh(mi, f"object{i}", obj.mesh, bsdf)

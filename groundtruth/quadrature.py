@@ -249,6 +249,11 @@ def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> 
 
 def render(scene, subpixels: int = 4) -> Render:
     """The noise-free, unoccluded reference of `scene` (see the module docstring)."""
+    if scene.reference.lighting != "environment":
+        from scenes import InputError
+
+        raise InputError(f"{scene.path}: reference.lighting = {scene.reference.lighting!r}: the quadrature integrates "
+                         "the environment map; render the light array with --renderer reference")
     t0 = time.perf_counter()
     env = scene.environment.radiance()
     rot = rotation_y(scene.environment.rotation_deg)  # env frame -> world; world -> env frame is rot.T

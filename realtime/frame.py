@@ -72,16 +72,19 @@ def render(scene) -> Render:
         precompute_ms = (time.perf_counter() - t0) * 1e3
         needs = [t.chain_level(frame) for t in techniques]
         chain_to = None if None in needs else max(needs, default=level)
+        needs_cube = not needs or any(n != technique.NO_CUBE for n in needs)
         drawer = SceneDrawer(ctx, scene, env_filter, techniques)
 
         def environment(rotation: float) -> None:
-            env_filter.fill_base(rotation)
-            env_filter.build_chain(chain_to)
+            if needs_cube:  # the light array alone reads the equirect map directly
+                env_filter.fill_base(rotation)
+                env_filter.build_chain(chain_to)
 
         keys = ["filter", *dict.fromkeys(t.timing_key for t in techniques if t.timing_key != "filter")]
         samples: dict[str, list[float]] = {k: [] for k in (*keys, "draw", "total", "background")}
         for k in range(rt.warmup_frames + rt.timing_frames):
             frame.rotation_deg = scene.environment.rotation_deg + k * rt.rotate_deg_per_frame
+            frame.number = k
             parts = dict.fromkeys(keys, 0.0)
             parts["filter"] = timed(ctx, lambda: environment(frame.rotation_deg))
             for t in techniques:
@@ -96,6 +99,7 @@ def render(scene) -> Render:
                 samples["background"].append(t_background)
         # the image itself: the scene's own environment rotation
         frame.rotation_deg = scene.environment.rotation_deg
+        frame.number = rt.warmup_frames + rt.timing_frames
         environment(frame.rotation_deg)
         for t in techniques:
             t.update(frame)

@@ -220,7 +220,7 @@ class SceneDrawer:
         per_vertex = scene.realtime.reflection == "per_vertex" and "glossy" in scene.effects
         reflection = ("REFLECTION_PER_VERTEX",) if per_vertex else ()
         self.defines = effects + extra + reflection + materials.glsl_defines()
-        self.prog = ctx.program(vertex_shader=shader_source("shade.vert", reflection),
+        self.prog = ctx.program(vertex_shader=shader_source("shade.vert", self.defines),
                                 fragment_shader=shader_source("shade.frag", self.defines))
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))

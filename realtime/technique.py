@@ -20,7 +20,7 @@ stops the chain at the selected level.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from importlib import import_module
 from typing import Any, ClassVar
 
@@ -32,11 +32,19 @@ REGISTRY: dict[tuple[str, str], str] = {
     ("diffuse", "irradiance_map"): "realtime.diffuse_irradiance_map:IrradianceMapDiffuse",
     ("glossy", "box"): "realtime.glossy_box:BoxGlossy",
     ("glossy", "prefiltered"): "realtime.glossy_prefiltered:PrefilteredGlossy",
+    ("diffuse", "lights"): "realtime.lights:DiffuseLights",
+    ("glossy", "lights"): "realtime.lights:GlossyLights",
+    ("occlusion", "shadow_maps"): "realtime.shadow_maps:ShadowMaps",
+    ("diffuse", "prt"): "realtime.prt:PrtDiffuse",
+    ("occlusion", "prt"): "realtime.prt:PrtOcclusion",
+    ("interreflection", "prt"): "realtime.prt:PrtInterreflection",
 }
 #: the scene keys that choose a technique, in the order frames run them
 EFFECT_KEYS = ("diffuse", "glossy", "occlusion", "interreflection")
 #: `none` choices: the effect is ignored (the paper ignores occlusion and interreflection)
 NOTHING = "none"
+#: `chain_level` of a technique that reads neither the cube map nor its chain (e.g. the light array)
+NO_CUBE = -1
 
 
 @dataclass
@@ -50,6 +58,8 @@ class Frame:
     face_size: int
     level: int
     rotation_deg: float = 0.0
+    number: int = 0  # the frame's index (warm-up frames included), for state shared between techniques
+    shared: dict = field(default_factory=dict)  # e.g. the light array that diffuse, glossy and shadows read
 
 
 class Technique:
@@ -69,8 +79,15 @@ class Technique:
     def __init__(self, frame: Frame) -> None:
         self.frame = frame
 
+    @classmethod
+    def covers(cls, lobe: str, scene) -> bool:
+        """For an occlusion or interreflection technique: whether it reaches this lobe's light
+        ("diffuse" or "glossy") with the scene's other choices (e.g. PRT shadows diffuse light only)."""
+        return True
+
     def chain_level(self, frame: Frame) -> int | None:
-        """The coarsest level of the environment's box chain it reads (None: the whole chain)."""
+        """The coarsest level of the environment's box chain it reads (None: the whole chain; NO_CUBE:
+        not even the cube map: a frame whose techniques all say so skips building it)."""
         return frame.level
 
     def prepare(self, frame: Frame) -> None:  # noqa: B027 (optional hook)
@@ -142,8 +159,15 @@ def simulated_effects(scene) -> frozenset[str]:
 
 def unsimulated_effects(scene) -> list[str]:
     """Effects the scene calls for that its techniques do not simulate (design.md section 9): a low
-    PSNR there is a missing effect, not a bug."""
-    return sorted(scene.effects - simulated_effects(scene))
+    PSNR there is a missing effect, not a bug. An occlusion or interreflection technique that reaches
+    only one lobe adds the other as e.g. "glossy occlusion" (PRT shadows the diffuse light only)."""
+    missing = sorted(scene.effects - simulated_effects(scene))
+    for key, value in needed(scene):
+        if key in ("occlusion", "interreflection"):
+            cls = technique_class(key, value)
+            missing += [f"{lobe} {key}" for lobe in ("diffuse", "glossy")
+                        if lobe in scene.effects and not cls.covers(lobe, scene)]
+    return missing
 
 
 def describe(scene) -> dict[str, Any]:
@@ -165,4 +189,14 @@ def describe(scene) -> dict[str, Any]:
         out["lod_bias"], out["lod_mapping"] = rt.lod_bias, rt.lod_mapping
     if rt.glossy == "prefiltered":
         out["prefiltered"] = vars(rt.prefiltered).copy()
+    if "lights" in (rt.diffuse, rt.glossy):
+        lights = vars(rt.lights).copy()
+        if rt.occlusion != "shadow_maps":
+            lights.pop("shadow_map_size")
+        out["lights"] = lights
+    if rt.diffuse == "prt":
+        prt = vars(rt.prt).copy()
+        if rt.occlusion != "prt":
+            prt.pop("rays")
+        out["prt"] = prt
     return out

@@ -17,11 +17,18 @@ uniform float f0;
 uniform int two_sided;  // material.two_sided (scenes/materials.py): 0 one-sided, 1 two-sided
 out vec4 frag;
 const float PI = 3.14159265358979323846;
+// the fragment's shading normal (unit, facing the viewer), for techniques that need more than their
+// argument (the light array's horizon, the shadow maps' normal offset); set first thing in main()
+vec3 shading_normal;
 
 // vec3 diffuse_irradiance(vec3 n): E(n), the cosine-weighted integral of the environment
 #include "diffuse_sh9.glsl"
 #include "diffuse_sh_n.glsl"
 #include "diffuse_irradiance_map.glsl"
+#include "diffuse_prt.glsl"
+// float light_visibility(int i), then both lobes of the light array
+#include "shadow_maps.glsl"
+#include "lights.glsl"
 // vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
 #include "glossy_box.glsl"
 #include "glossy_prefiltered.glsl"
@@ -41,6 +48,7 @@ void main() {
         }
         n = -n;  // reflect(-v, n) does not depend on the normal's sign: per-vertex reflection holds too
     }
+    shading_normal = n;
     float n_dot_v = clamp(dot(n, v), 0.0, 1.0);
     vec3 Ld = vec3(0.0);
     vec3 Lg = vec3(0.0);
