@@ -107,6 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "sweeping (SH order and window, irradiance-map sizes, LOD bias and mapping, samples)")
     s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
     s.add_argument("--out", default="reports/sweep")
+    add_cluster_options(s)
     s.set_defaults(func=_cmd_sweep)
 
     g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
@@ -139,8 +140,30 @@ def build_parser() -> argparse.ArgumentParser:
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)")
     pa.add_argument("--out", default="reports/paper")
     pa.add_argument("--quick", action="store_true")
+    add_cluster_options(pa)
     pa.set_defaults(func=_cmd_paper)
     return p
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a whole number of worker processes, at least 1")
+    return n
+
+
+def add_cluster_options(parser: argparse.ArgumentParser) -> None:
+    """`--workers N` | `--scheduler ADDRESS`: references on a Dask cluster (experiments/distributed.py)."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=_workers, metavar="N",
+                       help="render the references on a local Dask cluster of N worker processes (real-time "
+                            "renders and their frame times stay in this process)")
+    group.add_argument("--scheduler", metavar="ADDRESS",
+                       help="render the references on a running Dask cluster (`dask scheduler`, `dask worker`), "
+                            "e.g. tcp://10.0.0.5:8786")
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
@@ -175,7 +198,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
                       f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
                       lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),
                       extra=[parse_axis(a) for a in args.axis], technique_axes=args.technique_axes)
-    rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set))
+    rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set), workers=args.workers,
+                     scheduler=args.scheduler)
     print(one_line(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}"))
     return EXIT_OK
 
@@ -232,7 +256,7 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 
     from . import paper
 
-    print(one_line(paper.run(Path(args.out), quick=args.quick)))
+    print(one_line(paper.run(Path(args.out), quick=args.quick, workers=args.workers, scheduler=args.scheduler)))
     return EXIT_OK
 
 

@@ -13,6 +13,9 @@
     E9 storage    environment parameterizations at equal texel budgets: cube, dual paraboloid, sphere
                   map; sampling rates, where the error goes, the sphere map's view dependence,
                   per-vertex against per-pixel reflection (experiments/parameterizations.py).
+    E8 occlusion  what shadows and bounces cost: the light array without and with shadow maps, PRT orders,
+                  rays and bounces on bowl-diffuse, teapot-blend and sphere-on-plane, the array's error split
+                  into discretisation and shadows (experiments/occlusion.py).
     E6 stability  every hard case (bright suns and SH windows, extreme exponents and sizes, broken
                   inputs, odd geometry, determinism) with what happened (experiments/stability.py).
 
@@ -65,8 +68,9 @@ def f2(x) -> str:
 
 
 class Suite:
-    def __init__(self, out: Path, settings: Settings, progress):
+    def __init__(self, out: Path, settings: Settings, progress, cluster=None):
         self.out, self.s, self.progress = out, settings, progress
+        self.cluster = cluster  # experiments.distributed.Cluster: references as Dask tasks (None: here)
         self.store = store_in(out)
         self.done: dict[str, ResultRow] = {r.id: r for r in self.store.read()}
         self.used: list[str] = []
@@ -82,7 +86,12 @@ class Suite:
         ov = {**self.base(), **overrides}
         rid = row_id(spec, ov)
         if rid not in self.done:
-            self.done[rid] = run_row(self.out, spec, ov, experiment, convergence_curve=curve)
+            refs = None
+            if self.cluster is not None:  # both seeds at once on the workers; frames timed here
+                import scenes
+
+                refs = self.cluster.references(scenes.load(spec).with_overrides(ov))
+            self.done[rid] = run_row(self.out, spec, ov, experiment, convergence_curve=curve, references=refs)
             self.store.append(self.done[rid])
         elif rid not in self.used:
             self.reused += 1
@@ -95,6 +104,31 @@ class Suite:
             self.used.append(rid)
         self.progress()
         return self.done[rid]
+
+    def quadrature(self, scene):
+        """(the noise-free quadrature Render of `scene`, its seconds): a Dask task with a cluster (timed
+        on the worker that ran it), else computed here."""
+        if self.cluster is not None:
+            return self.cluster.quadrature(scene)
+        from groundtruth import quadrature
+
+        t0 = time.perf_counter()
+        return quadrature.render(scene), time.perf_counter() - t0
+
+    def prefetch(self, items: list[tuple[str, dict]], quadratures: tuple = ()) -> None:
+        """With a cluster: submit the references of these (spec, overrides) now, so that they render in
+        parallel; `row` then finds them (a miss costs parallelism, never correctness). On a host shared
+        with the workers, wait for them before any frame is timed."""
+        if self.cluster is None:
+            return
+        import scenes
+
+        for spec, ov in items:
+            self.cluster.submit_references(scenes.load(spec).with_overrides({**self.base(), **ov}))
+        for spec in quadratures:
+            self.cluster.submit_quadrature(scenes.load(spec).with_overrides(self.base()))
+        if self.cluster.quiet_timing:
+            self.cluster.wait_idle()
 
     def keep_only_used(self) -> None:
         """Rewrite results.jsonl with this run's rows only (a quick run after a full one, or the reverse,
@@ -109,9 +143,7 @@ class Suite:
 
         spec = "builtin:sphere-diffuse"
         scene = scenes.load(spec).with_overrides(self.base())
-        t0 = time.perf_counter()
-        brute = quadrature.render(scene)
-        brute_s = time.perf_counter() - t0
+        brute, brute_s = self.quadrature(scene)
         env = scene.environment.radiance()
         rng = np.random.default_rng(0)
         normals = rng.normal(size=(4000, 3))
@@ -355,25 +387,42 @@ def e6_section(spp: int, progress) -> Section:
 
 def count_steps(s: Settings, quick: bool) -> int:
     from . import ladder, stability
+    from . import occlusion as e8
     from . import parameterizations as e9
 
     return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
             + 4 * len(s.e4_faces) + len(s.e5_spps) + stability.count_parts()
-            + ladder.count_steps(ladder.QUICK if quick else ladder.FULL) + e9.count_steps(quick))
+            + ladder.count_steps(ladder.QUICK if quick else ladder.FULL) + e9.count_steps(quick)
+            + e8.count_steps(quick))
 
 
-def run(out: Path, quick: bool = False) -> Path:
+def reference_plan(s: Settings) -> list[tuple[str, dict]]:
+    """(spec, overrides) with the distinct references of E1-E3 (a face size or LOD bias does not change
+    a reference): submitted up front on a Dask cluster (Suite.prefetch)."""
+    return ([("builtin:sphere-diffuse", {})]
+            + [("builtin:sphere-phong", {"objects.*.material.exponent": n}) for n in EXPONENTS]
+            + [("builtin:sphere-blend", {"objects.*.material.f0": f0, "realtime.lod_mapping": "mcguire"})
+               for f0 in F0S])
+
+
+def run(out: Path, quick: bool = False, workers: int | None = None, scheduler: str | None = None,
+        cluster=None) -> Path:
     """Run the suite into `out` (checked and locked first: one writer per folder); returns the path of
-    index.html."""
+    index.html. `workers` / `scheduler` / `cluster`: references as Dask tasks (experiments/distributed.py)."""
     from . import outputs
 
     settings = QUICK if quick else FULL
     with outputs.Outputs() as plan, folder_lock(plan.folder(out, "--out")):
         plan.folder(out / "figures", "--out")
-        return _run(out, settings, quick)
+        if cluster is None and workers is None and scheduler is None:
+            return _run(out, settings, quick)
+        from . import distributed
+
+        with distributed.maybe_cluster(workers, scheduler, cluster) as cl:
+            return _run(out, settings, quick, cl)
 
 
-def _run(out: Path, settings: Settings, quick: bool) -> Path:
+def _run(out: Path, settings: Settings, quick: bool, cluster=None) -> Path:
     from rich import progress as rp
 
     from . import outputs, report
@@ -384,7 +433,10 @@ def _run(out: Path, settings: Settings, quick: bool) -> Path:
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}")]
     with rp.Progress(*columns) as progress:
         task = progress.add_task("", total=count_steps(settings, quick))
-        suite = Suite(out, settings, lambda: progress.advance(task))
+        suite = Suite(out, settings, lambda: progress.advance(task), cluster)
+        if cluster is not None:
+            progress.update(task, description="references on Dask")
+            suite.prefetch(reference_plan(settings), quadratures=("builtin:sphere-diffuse",))
         sections = []
         for name in ("e1", "e2", "e3", "e4", "e5"):
             progress.update(task, description=name.upper())
@@ -403,6 +455,12 @@ def _run(out: Path, settings: Settings, quick: bool) -> Path:
 
         sections.append(e9.run(suite, quick, lambda: progress.advance(task)))
         timings["E9"] = time.perf_counter() - t
+        progress.update(task, description="E8")
+        t = time.perf_counter()
+        from . import occlusion as e8
+
+        sections.append(e8.run(suite, quick, lambda: progress.advance(task)))
+        timings["E8"] = time.perf_counter() - t
         progress.update(task, description="E6")
         t = time.perf_counter()
         sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))

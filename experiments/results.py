@@ -7,7 +7,10 @@ A row records what produced it — the scene spec and overrides, the real-time t
 parameters (`realtime.technique.describe`), every object's material (the fields its type uses) and
 the environment — and what was measured: the metrics of `experiments.comparison.compare` and the
 real-time timings (medians in `realtime_ms`, p90 in `realtime_p90_ms`, both with every per-frame key
-of the techniques plus `precompute`).
+of the techniques plus `precompute`), with the host and GL renderer that timed them (`host`,
+`gl_renderer`: rows of a Dask run come from many machines' references but one machine's frames). A
+row whose reference failed on a Dask cluster (experiments/distributed.py) has `error` set and no
+metrics; the next run of the sweep computes it again.
 
 Store (`ResultStore`): `results.jsonl`, one JSON object per line, appended and fsynced as rows
 finish. Reading drops a half-written last line (a killed run) so that a rerun resumes without losing
@@ -70,6 +73,9 @@ class ResultRow:
     equal_quality: str | None = None  # how equal_quality_s was found: interpolated | extrapolated | ...
     realtime_p90_ms: dict[str, float | None] = field(default_factory=dict)
     experiment: str | None = None
+    host: str | None = None  # the machine that rendered the real-time image and timed its frames
+    gl_renderer: str | None = None  # its GL renderer and version (realtime.context.renderer_name)
+    error: str | None = None  # why the row has no metrics (a failed reference task); rerun computes it again
     images: dict[str, str] = field(default_factory=dict)
     extra: dict[str, Any] = field(default_factory=dict)  # experiment-specific values
 

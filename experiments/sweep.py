@@ -23,6 +23,10 @@ paths), and ROW_VERSION and the reference plugin's version. So:
 - two configurations that resolve to the same content (`--face-sizes 8,8`, `a.exr,./a.exr`, an axis
   value equal to the scene's own) are one row of the plan;
 - one process writes a folder at a time (results.folder_lock): a second sweep into it is refused.
+
+`--workers N` / `--scheduler ADDRESS` render the references as Dask tasks and keep the real-time part
+(and its frame times) here (experiments/distributed.py); a row whose reference failed there is written
+with `error` set, and the next run computes it again.
 """
 
 from __future__ import annotations
@@ -266,15 +270,20 @@ def materials_of(scene) -> list[dict[str, Any]]:
 
 
 def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = None,
-            convergence_curve=None, extra: dict | None = None) -> ResultRow:
+            convergence_curve=None, extra: dict | None = None, references: tuple | None = None) -> ResultRow:
     """Render one configuration in real time and its (cached) reference, compare, save the pictures.
     With a reference `convergence_curve` (experiments.convergence.curve), the row gets
-    `equal_quality_s`: the path tracer's time to the real-time image's unbiased PSNR."""
+    `equal_quality_s`: the path tracer's time to the real-time image's unbiased PSNR.
+    `references`: the (reference, noise-floor reference) Renders already rendered elsewhere (a Dask
+    task, experiments/distributed.py); only the real-time part runs here then."""
+    import socket
+
     import scenes
     from realtime import technique
+    from realtime.context import renderer_name
 
     scene = scenes.load(spec).with_overrides(overrides)
-    c = comparison.run(scene)
+    c = comparison.run(scene) if references is None else compare_with(scene, *references)
     test = c.test
     rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, c.reference, c.mask)
@@ -289,8 +298,19 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
         reference_id=ref_id, reference_cache=m["reference_cache"], psnr_unbiased=m["psnr_unbiased"],
         psnr_unbiased_clamped=m["psnr_unbiased_clamped"],
         realtime_p90_ms={k: test.timings.get(f"{k}_p90") for k in m["realtime_ms"] if k != "precompute"},
-        experiment=experiment, images=pics, extra=extra or {})
+        experiment=experiment, host=socket.gethostname(), gl_renderer=renderer_name(), images=pics, extra=extra or {})
     return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
+
+
+def compare_with(scene, reference, reference2) -> comparison.Comparison:
+    """The real-time render of `scene` compared with references rendered elsewhere (both seeds)."""
+    import realtime
+
+    from . import metrics
+
+    test = realtime.render(scene)
+    return comparison.Comparison(comparison.compare(test, reference, scene, reference2=reference2), test, reference,
+                                 metrics.common_mask(test.mask, reference.mask))
 
 
 def with_equal_quality(row: ResultRow, curve) -> ResultRow:
@@ -306,20 +326,29 @@ def with_equal_quality(row: ResultRow, curve) -> ResultRow:
 
 
 def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = None,
-        report: bool = True) -> list[ResultRow]:
+        report: bool = True, workers: int | None = None, scheduler: str | None = None,
+        cluster=None) -> list[ResultRow]:
     """Run (or resume) a sweep into out_dir; returns all rows of results.jsonl.
 
     The plan is made (every scene validated) and out_dir checked before anything renders; the
-    folder is locked for the whole run (a second writer is refused)."""
+    folder is locked for the whole run (a second writer is refused). `workers` (a local Dask cluster
+    of that many processes), `scheduler` (a running one) or `cluster` (an experiments.distributed.Cluster
+    already started) render the references on Dask (experiments/distributed.py); without them the
+    rows are computed here one after the other."""
     from . import outputs
 
     todo_plan = plan_with_ids(scene_specs, axes, sets)
     with outputs.Outputs() as out_plan, folder_lock(out_plan.folder(out_dir, "--out")):
         store = store_in(out_dir)
-        rows = drop_stale(store)
+        rows = drop_failed(store, drop_stale(store))
         done = {r.id for r in rows}
-        todo = [(s, o) for s, o, rid in todo_plan if rid not in done]
-        _run_rows(out_dir, store, todo, len(done))
+        if cluster is None and workers is None and scheduler is None:
+            _run_rows(out_dir, store, [(s, o) for s, o, rid in todo_plan if rid not in done], len(done))
+        else:
+            from . import distributed
+
+            with distributed.maybe_cluster(workers, scheduler, cluster) as cl:
+                distributed.run_rows(cl, out_dir, store, [t for t in todo_plan if t[2] not in done], len(done))
         rows = store.read()
         if report:
             from . import report as report_mod
@@ -338,6 +367,16 @@ def drop_stale(store) -> list[ResultRow]:
         store.rewrite(rows)
         warnings.warn(f"{store.path}: dropped {len(old)} rows whose scene, map or mesh changed since they were "
                       "computed (or that no longer load); they are computed again", StaleRowsWarning, stacklevel=2)
+    return rows
+
+
+def drop_failed(store, rows: list[ResultRow]) -> list[ResultRow]:
+    """`rows` without the rows that carry an error (a Dask task that failed): rewritten away, so that
+    this run computes them again and each id stays once in the file."""
+    if not any(r.error for r in rows):
+        return rows
+    rows = [r for r in rows if not r.error]
+    store.rewrite(rows)
     return rows
 
 
