@@ -269,6 +269,7 @@ class TaskStats:
     running: int = 0
     retried: set = field(default_factory=set)  # keys tried more than once
     seconds: list = field(default_factory=list)  # each finished task's own time on its worker
+    phases: dict = field(default_factory=dict)  # run_rows: "references" (submit to last task), "rows" (wall s)
 
     def text(self) -> str:
         return (f"running {self.running} · done {self.done} · failed {self.failed} · "
@@ -585,6 +586,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
 
     from .sweep import run_row, short
 
+    t_start = time.perf_counter()
     rows: dict[str, _Row] = {}
     users: dict[str, list[str]] = {}
     for spec, ov, rid in todo:
@@ -631,6 +633,8 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
         row_task = progress.add_task("", total=done + len(todo), completed=done, label="rows")
         while len(ids_written) < len(rows):
             batch = ac.next_batch(block=False) if not ac.is_empty() else []
+            if batch and ac.is_empty():
+                cluster.stats.phases["references"] = time.perf_counter() - t_start
             for fut in batch:
                 key = fut.key
                 if fut.status == "finished":
@@ -666,6 +670,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
                 time.sleep(0.05)
         cluster.poll([])
         progress.update(ref_task, description=cluster.stats.text())
+    cluster.stats.phases["rows"] = time.perf_counter() - t_start
     if echo:
         echo(one_line(cluster.summary()))
     return written
