@@ -62,20 +62,22 @@ class Material:
 
 @dataclass(frozen=True)
 class SceneObject:
-    shape: str = "sphere"  # builtin name or an absolute path to .obj/.ply
+    shape: str = "sphere"  # builtin name or an absolute path to a mesh file (meshes.MESH_FORMATS)
     translate: tuple[float, float, float] = (0.0, 0.0, 0.0)
     rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
     scale: float = 1.0
     resolution: int | None = None
     material: Material = field(default_factory=Material)
+    normals: str = "auto"  # auto | file | smooth | flat (meshes.make_mesh)
+    crease_deg: float | None = None  # with normals = "smooth": hard edges where faces meet at more than this
 
     @cached_property
     def mesh(self) -> meshes.Mesh:
         """The object's triangles in world space (the same arrays both renderers draw)."""
         if self.shape in meshes.BUILTIN_MESHES:
-            base = meshes.builtin(self.shape, self.resolution)
+            base = meshes.shaded(meshes.builtin(self.shape, self.resolution), self.normals, self.crease_deg)
         else:
-            base = meshes.load_file(self.shape)
+            base = meshes.load_file(self.shape, self.normals, self.crease_deg)
         return base.transformed(self.scale, self.rotate_deg, self.translate)
 
 
@@ -366,6 +368,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "rotate_deg": _vec3(-1e4, 1e4),
         "scale": _num(0, 1e6, lo_open=True),
         "resolution": _num(2, 1024, integer=True),
+        "normals": _enum(*meshes.NORMALS),
+        "crease_deg": _num(0, 180),
     },
     "material": {
         "type": _enum(*MATERIAL_TYPES),
@@ -601,12 +605,17 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         if shape not in meshes.BUILTIN_MESHES:
             p = Path(shape)
             p = p if p.is_absolute() else base_dir / p
-            if p.suffix.lower() not in (".obj", ".ply"):
-                raise fail(f"{prefix}.shape", shape, f"one of {', '.join(meshes.BUILTIN_MESHES)} or an .obj/.ply path")
+            if p.suffix.lower() not in meshes.MESH_FORMATS:
+                raise fail(f"{prefix}.shape", shape, f"one of {', '.join(meshes.BUILTIN_MESHES)} or a mesh file "
+                           f"({', '.join(meshes.MESH_FORMATS)})")
             problem = input_problem(p)
             if problem:
                 raise SceneError(f"{where}: {prefix}.shape = {short_repr(shape)}: {problem} ({p})")
             obj["shape"] = str(p)
+        if "crease_deg" in obj and obj.get("normals", "auto") != "smooth":
+            raise SceneError(f"{where}: {prefix}.crease_deg = {obj['crease_deg']} with {prefix}.normals = "
+                             f"{obj.get('normals', 'auto')!r}: a crease angle splits smooth normals; set "
+                             f"{prefix}.normals = \"smooth\" or remove {prefix}.crease_deg")
         objects.append(SceneObject(**obj))
 
     realtime = _realtime(tree.get("realtime", {}), where, section)
