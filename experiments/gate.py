@@ -56,7 +56,12 @@ SSIM and FLIP. Each run records the metric's standard error under reference nois
 its maps against the two seeds: D = map(t, r1) - map(t, r2) is the difference of two independent
 draws; with 16 x 16 blocks as sampling units (SSIM's 7 x 7 window and FLIP's filters correlate
 neighbours), se = block_se(D) / sqrt(2). A scene fails when SSIM fell, or FLIP rose, by more than
-z sqrt(se_base^2 + se_new^2). `--tolerance-ssim`, `--tolerance-flip` replace that. With the same
+z sqrt(se_base^2 + se_new^2) + shift. `--tolerance-ssim`, `--tolerance-flip` replace that. The shift is
+0 with the same reference; with a noisier one (fewer spp) it is what that noise alone costs the metric,
+slope (s2_new - s2_base), the slope measured per run against the mean of its two seeds (a reference
+with half the variance). It only widens the tolerance: a cleaner reference does not narrow it (the
+measured slope is noisy, and SSIM is not linear in the variance near its constants); the PSNR's shift
+is exact and signed. With the same
 reference this is conservative (the shared noise partly cancels); across references it is what the
 noise can do, measured on sphere-phong over 32 seeds: the estimates were 0.87 (MSE), 0.80 (FLIP) and
 0.61 (SSIM) of the observed spread at 96 x 96 and 64 spp, 0.9 to 1.25 of it at 48 x 48, and an
@@ -305,24 +310,32 @@ def ssim_map(test: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> tuple
 
 
 def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray, mask: np.ndarray) -> dict:
-    """{"ssim_se", "flip_se"}: the standard error of each metric that the reference's noise causes,
-    from its maps against two independently seeded references (display values): see the module
-    docstring. None where it cannot be estimated (too few pixels)."""
+    """How the reference's noise moves the metrics of `test` (display values; module docstring):
+    `mse_se`, `ssim_se`, `flip_se`, the standard errors, from the maps against two independently seeded
+    references; `ssim_noise_slope`, `flip_noise_slope`, the change of the metric per unit of noise
+    variance, from the reference against the mean of both (half the variance). None where it cannot
+    be estimated (too few pixels, a noise-free reference)."""
     from . import metrics
 
-    out = {"mse_se": None, "ssim_se": None, "flip_se": None}
-    if mask.any():
-        sq = (np.asarray(test, np.float64) - reference) ** 2 - (np.asarray(test, np.float64) - reference2) ** 2
-        se = block_se(sq.mean(axis=-1), mask, block=1)  # pixels are independent (box-filtered references)
-        out["mse_se"] = None if se is None else se / math.sqrt(2)
-    one, two = ssim_map(test, reference, mask), ssim_map(test, reference2, mask)
+    out = dict.fromkeys(("mse_se", "ssim_se", "flip_se", "ssim_noise_slope", "flip_noise_slope"))
+    if not mask.any():
+        return out
+    t, r1, r2 = (np.asarray(x, np.float64) for x in (test, reference, reference2))
+    half = (r1 + r2) / 2  # a reference with half the noise variance
+    variance = float(np.mean(((r1 - r2) ** 2)[mask])) / 2  # per value: 10^(-noise_floor_psnr / 10)
+    se = block_se(((t - r1) ** 2 - (t - r2) ** 2).mean(axis=-1), mask, block=1)  # pixels are independent
+    out["mse_se"] = None if se is None else se / math.sqrt(2)
+    one, two, mid = ssim_map(t, r1, mask), ssim_map(t, r2, mask), ssim_map(t, half, mask)
     if one is not None and two is not None:
         se = block_se(one[0] - two[0], one[1])
         out["ssim_se"] = None if se is None else se / math.sqrt(2)
-    if mask.any():
-        diff = metrics.flip_map(test, reference) - metrics.flip_map(test, reference2)
-        se = block_se(diff, mask)
-        out["flip_se"] = None if se is None else se / math.sqrt(2)
+        if variance > 0:
+            out["ssim_noise_slope"] = float(one[0][one[1]].mean() - mid[0][mid[1]].mean()) / (variance / 2)
+    f1 = metrics.flip_map(t, r1)
+    se = block_se(f1 - metrics.flip_map(t, r2), mask)
+    out["flip_se"] = None if se is None else se / math.sqrt(2)
+    if variance > 0:
+        out["flip_noise_slope"] = float(f1[mask].mean() - metrics.flip_map(t, half)[mask].mean()) / (variance / 2)
     return out
 
 
@@ -425,9 +438,22 @@ def psnr_tolerance_db(base: dict, new: dict, same_reference: bool, z: float = Z)
     return 10.0 * math.log10(max(1.0 + (z * s + shift) / m_b, 1e-12))
 
 
-def metric_tolerance(base_se: float | None, new_se: float | None, z: float = Z) -> float:
-    """z sqrt(se_base^2 + se_new^2) for SSIM or FLIP (an unknown standard error counts as 0)."""
-    return z * math.sqrt((base_se or 0.0) ** 2 + (new_se or 0.0) ** 2)
+def metric_tolerance(base_se: float | None, new_se: float | None, z: float = Z, shift: float = 0.0) -> float:
+    """z sqrt(se_base^2 + se_new^2) + shift for SSIM or FLIP (an unknown standard error counts as 0);
+    `shift`: the worsening that the new reference's other noise level alone explains (noise_shift)."""
+    return z * math.sqrt((base_se or 0.0) ** 2 + (new_se or 0.0) ** 2) + shift
+
+
+def noise_shift(metric: str, base: dict, new: dict) -> float:
+    """The worsening of `metric` (ssim or flip) that a noisier new reference explains: slope (s2_new -
+    s2_base) with the mean of the runs' `METRIC_noise_slope`, when that is a worsening, else 0 (a cleaner
+    reference never narrows the tolerance: the measured slope is noisy, and SSIM is not linear in the
+    variance near its constants). 0 without both floors or any slope."""
+    slopes = [x[f"{metric}_noise_slope"] for x in (base, new) if x.get(f"{metric}_noise_slope") is not None]
+    if not slopes or base.get("noise_floor_psnr") is None or new.get("noise_floor_psnr") is None:
+        return 0.0
+    change = sum(slopes) / len(slopes) * (_mse(new["noise_floor_psnr"]) - _mse(base["noise_floor_psnr"]))
+    return max(-change if metric == "ssim" else change, 0.0)
 
 
 def identity_differences(record: dict, entry: dict) -> list[str]:
@@ -484,7 +510,8 @@ def compare_record(record: dict, entry: dict, tolerances: dict) -> tuple[list[De
             tol = psnr_tolerance_db(base, new, same_ref) if base.get("noise_floor_psnr") is not None \
                 and new.get("noise_floor_psnr") is not None else 0.0
         else:
-            tol = metric_tolerance(base.get(f"{metric}_se"), new.get(f"{metric}_se"))
+            tol = metric_tolerance(base.get(f"{metric}_se"), new.get(f"{metric}_se"),
+                                   shift=0.0 if same_ref else noise_shift(metric, base, new))
         worsening = (n - b) * worse
         d = Delta(metric, b, n, tol, worsening > tol)
         deltas.append(d)
@@ -580,7 +607,8 @@ def _check_entry(path: Path, key: str, entry: Any) -> None:
     metrics = entry.get("metrics")
     if not isinstance(metrics, dict):
         raise BaselineError(f"{where}.metrics: missing or not an object")
-    for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se"):
+    for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
+              "flip_noise_slope"):
         if not _number(metrics.get(k)):
             raise BaselineError(f"{where}.metrics.{k}: {_short(metrics.get(k))} is not a finite number or null")
     pixels = metrics.get("pixels")

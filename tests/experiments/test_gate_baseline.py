@@ -288,6 +288,7 @@ def test_written_baseline_records_metrics_timings_and_identity(baseline):
     m = rec["metrics"]
     assert 10 < m["psnr"] < m["noise_floor_psnr"] and 0 < m["ssim"] <= 1 and m["pixels"] > 500
     assert m["mse_se"] > 0 and m["ssim_se"] > 0 and m["flip_se"] > 0
+    assert m["ssim_noise_slope"] < 0 < m["flip_noise_slope"]  # more reference noise: lower SSIM, higher FLIP
     assert rec["timings"]["realtime_ms"]["total"] > 0
 
 
@@ -367,3 +368,57 @@ def test_max_time_ratio(baseline, tmp_path, capsys):
     out = capsys.readouterr().out
     assert code == 1 and "above --max-time-ratio 2" in out
     assert math.isfinite(ratio)
+
+
+# --------------------------------------------------------------------------- the noise estimates
+
+
+def test_ssim_and_flip_shifts_by_hand():
+    base, new = record()["metrics"], record()["metrics"]
+    base["ssim_noise_slope"], new["ssim_noise_slope"] = -20.0, -30.0
+    new["noise_floor_psnr"] = 34.0
+    # slope -25 per unit variance, s2 from 1e-4 to 10^-3.4 = 3.981072e-4: SSIM expected to fall by
+    # 25 * 2.981072e-4 = 0.0074527; tolerance 2 sqrt(2) 0.001 + 0.0074527 = 0.0102811
+    assert gate.noise_shift("ssim", base, new) == pytest.approx(0.0074527, abs=1e-7)
+    new["noise_floor_psnr"] = 46.0  # a cleaner reference never narrows the tolerance
+    assert gate.noise_shift("ssim", base, new) == 0.0
+    new["noise_floor_psnr"] = 34.0
+    new_rec = record(ssim=0.891, ref="r1", floor=34.0)
+    new_rec["metrics"]["ssim_noise_slope"] = -30.0
+    base_rec = record()
+    base_rec["metrics"]["ssim_noise_slope"] = -20.0
+    d = by_metric(gate.compare_record(new_rec, base_rec, {})[0])["ssim"]
+    assert d.tolerance == pytest.approx(0.0102811, abs=1e-7) and not d.failed  # a 0.009 fall, explained
+    same = record(ssim=0.891, floor=34.0)  # the same reference (digest): no shift, the fall fails
+    assert by_metric(gate.compare_record(same, base_rec, {})[0])["ssim"].failed
+
+
+def test_noise_estimates_match_the_spread_over_independent_references():
+    """Gaussian reference noise on a smooth image: the standard errors estimated from one pair of
+    references match the spread of the metrics over 120 independent references."""
+    rng = np.random.default_rng(7)
+    y, x = np.mgrid[0:48, 0:48] / 48.0
+    truth = np.stack([0.3 + 0.4 * x, 0.5 + 0.2 * np.sin(6 * y), 0.4 + 0.3 * x * y], axis=-1)
+    test = np.clip(truth + 0.03 * np.sin(9 * x)[..., None], 0, 1)
+    mask = np.ones((48, 48), bool)
+    sigma = 0.02
+    # by hand: t - r = d - n, D_p = mean_c (d - n1)^2 - (d - n2)^2; for d = 0: mse_se = s2 sqrt(2 / (3 N))
+    d0 = gate.metric_noise(truth, truth + sigma * rng.standard_normal(truth.shape),
+                           truth + sigma * rng.standard_normal(truth.shape), mask)
+    assert d0["mse_se"] == pytest.approx(sigma**2 * math.sqrt(2 / (3 * 48 * 48)), rel=0.1)
+    from experiments import metrics
+
+    values = {"mse": [], "ssim": [], "flip": []}
+    estimates = {"mse": [], "ssim": [], "flip": []}
+    for _ in range(120):
+        r1, r2 = (truth + sigma * rng.standard_normal(truth.shape) for _ in range(2))
+        values["mse"].append(float(np.mean((test - r1) ** 2)))
+        values["ssim"].append(metrics.ssim(test, r1, mask))
+        values["flip"].append(metrics.flip(test, r1, mask))
+        if len(estimates["mse"]) < 20:
+            est = gate.metric_noise(test, r1, r2, mask)
+            for k in estimates:
+                estimates[k].append(est[f"{k}_se"])
+    for k in values:
+        spread, estimate = np.std(values[k], ddof=1), math.sqrt(np.mean(np.square(estimates[k])))
+        assert 0.7 < estimate / spread < 1.4, (k, estimate, spread)
