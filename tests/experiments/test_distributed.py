@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -280,3 +281,43 @@ def test_paper_suite_rows_on_the_cluster_equal_serial_rows(tmp_path, cache, monk
         return [line.split("|")[:6] for line in section.markdown.split("\n\n")[0].splitlines()]
 
     assert untimed(dask_e1) == untimed(serial_e1)
+
+
+def test_sweep_on_a_running_scheduler_hands_the_references_back(tmp_path, cache):
+    """`dask scheduler` + `dask worker` started apart (as on other machines, with their own cache folder):
+    `--scheduler ADDRESS` uses them, the worker caches what it rendered, the driver stores what it got."""
+    dask = str(Path(sys.executable).parent / "dask")
+    file = tmp_path / "scheduler.json"
+    worker_cache = tmp_path / "worker-cache"
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(worker_cache)}
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
+                               "--scheduler-file", str(file)], env=env, stdout=subprocess.DEVNULL,
+                              stderr=subprocess.DEVNULL, start_new_session=True)]
+    try:
+        deadline = time.time() + 60
+        while not file.exists() and time.time() < deadline:
+            time.sleep(0.1)
+        procs.append(subprocess.Popen([dask, "worker", "--scheduler-file", str(file), "--nworkers", "1",
+                                       "--nthreads", "1", "--no-dashboard"], cwd=tmp_path, env=env,
+                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True))
+        address = json.loads(file.read_text())["address"]
+        from distributed import Client
+
+        with Client(address, timeout=30) as c:
+            c.wait_for_workers(1, timeout=60)
+        lines: list[str] = []
+        from experiments.distributed import Cluster
+
+        with Cluster(scheduler=address, echo=lines.append) as cl:
+            rows = sweep.run(["builtin:sphere-blend"], AXES, tmp_path / "sweep", sets=TINY, report=False, cluster=cl)
+            assert cl.quiet_timing  # its worker shares this host: frames are timed once it is idle
+    finally:
+        for p in procs:
+            with contextlib.suppress(ProcessLookupError):
+                os.killpg(p.pid, signal.SIGTERM)
+        for p in procs:
+            p.wait(timeout=30)
+    assert any("1 workers" in line for line in lines), lines
+    assert len(rows) == 4 and not any(r.error for r in rows)
+    mine = sorted(p.name for p in cache.glob("*.npz"))
+    assert len(mine) == 4 and mine == sorted(p.name for p in worker_cache.glob("*.npz"))
