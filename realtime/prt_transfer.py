@@ -403,7 +403,8 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     temp file + os.replace; a corrupt/unreadable entry is recomputed with a warning; an unwritable cache dir is a
     warning, not a failure), keyed by SHA-256 of every object's positions/normals/indices bytes, kd, two_sided,
     order, rays, bounces, shadowed, seed and a TRANSFER_VERSION constant. Returns (transfers, info) where info has
-    {"key", "cached": bool, "seconds": compute seconds (0 if cached), "rays_traced": int, "vertices": int}.
+    {"key", "cached": bool, "seconds": compute seconds (0 if cached), "rays_traced": int, "vertices": int,
+    "compute_seconds": what computing it took, also when read from the cache (E8 reports it)}.
 
     rays_traced is the number of rays the transfer took (vertices x rays when shadowed, else 0), also when it
     came from the cache (then `cached` is True and `seconds` 0: none were traced now).
@@ -420,10 +421,11 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     if entry is not None:
         arrays, meta = entry
         return arrays, {"key": key, "cached": True, "seconds": 0.0, "rays_traced": int(meta["rays_traced"]),
-                        "vertices": vertices}
+                        "vertices": vertices, "compute_seconds": float(meta.get("seconds", 0.0))}
     t0 = time.perf_counter()
     arrays, traced = _transfer(objects, order, rays, bounces, shadowed, seed, progress)
     seconds = time.perf_counter() - t0
     _store(folder, key, arrays, {"rays_traced": traced, "vertices": vertices, "seconds": seconds,
                                  "version": TRANSFER_VERSION})
-    return arrays, {"key": key, "cached": False, "seconds": seconds, "rays_traced": traced, "vertices": vertices}
+    return arrays, {"key": key, "cached": False, "seconds": seconds, "rays_traced": traced, "vertices": vertices,
+                    "compute_seconds": seconds}

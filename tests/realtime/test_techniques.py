@@ -65,6 +65,21 @@ def test_not_implemented_values_are_refused_not_ignored(key, value):
     ({"realtime.diffuse": "irradiance_map", "realtime.base_size": 64, "realtime.face_size": 16,
       "realtime.irradiance_map.source_size": 128},
      ["realtime.irradiance_map.source_size", "realtime.base_size"]),
+    # the light array and precomputed transfer (issue 12)
+    ({"realtime.diffuse": "lights", "realtime.lights.count": 40}, ["realtime.lights.count", "42, 66"]),
+    ({"realtime.diffuse": "lights", "realtime.lights.placement": "median_cut", "realtime.lights.count": 42},
+     ["realtime.lights.count", "realtime.lights.placement", "power of two"]),
+    ({"realtime.diffuse": "lights", "realtime.lights.shadow_map_size": 256},
+     ["realtime.lights.shadow_map_size", "realtime.occlusion"]),
+    ({"realtime.diffuse": "lights", "realtime.occlusion": "shadow_maps", "realtime.lights.count": 642,
+      "realtime.lights.shadow_map_size": 1024}, ["realtime.lights.count", "realtime.lights.shadow_map_size", "GiB"]),
+    ({"realtime.occlusion": "prt"}, ["realtime.occlusion", "realtime.diffuse"]),
+    ({"realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.interreflection": "prt"},
+     ["realtime.interreflection", "realtime.prt.bounces"]),
+    ({"realtime.diffuse": "prt", "realtime.prt.bounces": 1}, ["realtime.prt.bounces", "realtime.interreflection"]),
+    ({"realtime.diffuse": "prt", "realtime.prt.rays": 64}, ["realtime.prt.rays", "realtime.occlusion"]),
+    ({"realtime.diffuse": "prt", "realtime.prt.order": 5}, ["realtime.prt.order"]),
+    ({"reference.lighting": "light_array"}, ["reference.lighting", "realtime.diffuse"]),
 ])
 def test_unused_tables_and_nonsense_combinations_name_both_keys(overrides, names):
     with pytest.raises(SceneError) as err:
@@ -103,9 +118,28 @@ def test_a_used_table_is_read():
     ("builtin:sphere-diffuse", []), ("builtin:sphere-phong", []), ("builtin:sphere-blend", []),
     ("builtin:teapot-blend", ["interreflection", "occlusion"]), ("builtin:bowl-diffuse", ["interreflection",
                                                                                           "occlusion"]),
-    ("builtin:torus-phong", ["interreflection", "occlusion"])])
+    ("builtin:torus-phong", ["interreflection", "occlusion"]),
+    ("builtin:sphere-on-plane", ["interreflection", "occlusion"])])
 def test_unsimulated_effects(spec, missing):
     assert technique.unsimulated_effects(scenes.load(spec)) == missing
+
+
+@pytest.mark.parametrize(("spec", "overrides", "missing"), [
+    # PRT transfers diffuse light only: a blend's highlights stay unshadowed
+    ("builtin:teapot-blend", {"realtime.diffuse": "prt", "realtime.occlusion": "prt"},
+     ["interreflection", "glossy occlusion"]),
+    ("builtin:teapot-blend", {"realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.interreflection":
+                              "prt", "realtime.prt.bounces": 1}, ["glossy occlusion", "glossy interreflection"]),
+    ("builtin:bowl-diffuse", {"realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.interreflection":
+                              "prt", "realtime.prt.bounces": 2}, []),
+    # shadow maps shadow what the light array lights: both lobes, or only the diffuse one
+    ("builtin:teapot-blend", {"realtime.diffuse": "lights", "realtime.glossy": "lights",
+                              "realtime.occlusion": "shadow_maps"}, ["interreflection"]),
+    ("builtin:teapot-blend", {"realtime.diffuse": "lights", "realtime.occlusion": "shadow_maps"},
+     ["interreflection", "glossy occlusion"]),
+])
+def test_a_technique_that_reaches_one_lobe_names_the_other(spec, overrides, missing):
+    assert technique.unsimulated_effects(scenes.load(spec).with_overrides(overrides)) == missing
 
 
 def test_only_the_scenes_effects_get_techniques():
