@@ -74,7 +74,9 @@ def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], No
 
     columns = [rp.TextColumn(f"[bold]{label}"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("{task.description}", markup=False)]
-    with rp.Progress(*columns, console=Console(file=stream), transient=True, refresh_per_second=4) as bar:
+    # stdout is never redirected: what a command prints there stays its result, even mid-bar
+    with rp.Progress(*columns, console=Console(file=stream), transient=True, refresh_per_second=4,
+                     redirect_stdout=False) as bar:
         task = bar.add_task("", total=total)
         begun = False
 
