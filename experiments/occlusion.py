@@ -172,7 +172,6 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
     s = QUICK if quick else FULL
     timing = {"realtime.timing_frames": s.frames, "realtime.warmup_frames": 1}
     per_scene: dict[str, tuple[list[ResultRow], list]] = {}
-    shadows_exact: list[list[str]] = []
     splits: list[list[str]] = []
     for name, spec in SCENES:
         scene = scenes.load(spec).with_overrides(suite.base())

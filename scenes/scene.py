@@ -145,18 +145,18 @@ class IrradianceMap:
 
 @dataclass(frozen=True)
 class Lights:
-    """[realtime.lights]: the light array (not implemented yet)."""
-    count: int = 42
+    """[realtime.lights]: the light array (scenes/light_array.py, realtime/lights.py)."""
+    count: int = 42  # geodesic: a subdivided polyhedron's vertex count; median_cut: a power of two
     placement: str = "geodesic"
-    shadow_map_size: int = 512
+    shadow_map_size: int = 512  # one depth map per light (realtime.occlusion = "shadow_maps")
 
 
 @dataclass(frozen=True)
 class Prt:
-    """[realtime.prt]: precomputed radiance transfer (not implemented yet)."""
-    order: int = 2
-    rays: int = 256
-    bounces: int = 0
+    """[realtime.prt]: precomputed radiance transfer (realtime/prt_transfer.py, realtime/prt.py)."""
+    order: int = 2  # SH order of the transfer (2: 9 coefficients ... 4: 25)
+    rays: int = 256  # visibility rays per vertex (realtime.occlusion or interreflection = "prt")
+    bounces: int = 0  # interreflected bounces (>= 1 with realtime.interreflection = "prt")
 
 
 @dataclass(frozen=True)
@@ -207,6 +207,9 @@ class Reference:
     integrator: str = "auto"
     model: str = "paper"
     max_depth: int = 16
+    #: "environment" (the map itself) or "light_array": the scene's [realtime.lights] array as N
+    #: directional emitters, which splits the light array's error into discretisation and shadows (E8)
+    lighting: str = "environment"
 
 
 @dataclass(frozen=True)
@@ -418,8 +421,8 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "shadow_map_size": _pow2(16, 8192),
     },
     "realtime.prt": {
-        "order": _num(2, 8, integer=True),
-        "rays": _num(1, 1 << 20, integer=True),
+        "order": _num(2, 4, integer=True),
+        "rays": _num(1, 1 << 16, integer=True),
         "bounces": _num(0, 16, integer=True),
     },
     "realtime.vct": {
@@ -434,6 +437,7 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "integrator": _enum("auto", "direct", "path"),
         "model": _enum("paper", "physical"),
         "max_depth": _num(2, 1000, integer=True),
+        "lighting": _enum("environment", "light_array"),
     },
     "gate": {
         "min_psnr": _num(-1e3, 1e3),
@@ -619,6 +623,11 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         objects.append(SceneObject(**obj))
 
     realtime = _realtime(tree.get("realtime", {}), where, section)
+    reference = Reference(**section("reference", tree.get("reference", {})))
+    if reference.lighting == "light_array" and "lights" not in (realtime.diffuse, realtime.glossy):
+        raise SceneError(f"{where}: reference.lighting = 'light_array' with realtime.diffuse = {realtime.diffuse!r}: "
+                         'the reference renders the real-time light array; set realtime.diffuse or realtime.glossy '
+                         '= "lights"')
 
     scene = Scene(
         name=name,
@@ -627,7 +636,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         objects=tuple(objects),
         tonemap=ToneMap(**section("tonemap", tree.get("tonemap", {}))),
         realtime=realtime,
-        reference=Reference(**section("reference", tree.get("reference", {}))),
+        reference=reference,
         gate=Gate(**section("gate", tree.get("gate", {}))),
         path=where,
         source=copy.deepcopy(tree),
@@ -648,9 +657,9 @@ TECHNIQUE_TABLES = {"prefiltered": Prefiltered, "irradiance_map": IrradianceMap,
 #: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
 #: ignored. An issue that adds a technique removes its entry here (tests/realtime/test_techniques.py
 #: checks that every other choice has a module).
-NOT_IMPLEMENTED = frozenset({("diffuse", "lights"), ("diffuse", "prt"), ("glossy", "lights"),
-                             ("occlusion", "shadow_maps"), ("occlusion", "prt"), ("occlusion", "vct"),
-                             ("interreflection", "prt"), ("interreflection", "vct")})
+NOT_IMPLEMENTED = frozenset({("occlusion", "vct"), ("interreflection", "vct")})
+#: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB)
+MAX_SHADOW_TEXELS = 1 << 28
 
 
 def table_users(rt: Realtime) -> dict[str, str | None]:
@@ -685,6 +694,7 @@ def _realtime(raw: Any, where: str, section) -> Realtime:
             raise SceneError(f"{where}: realtime.{name}: this table is not used by the chosen techniques; "
                              f"it applies to {_table_hint(name)}")
     _check_combinations(rt, flat, where)
+    _check_technique_tables(rt, raw, where)
     for key in ("diffuse", "glossy", "occlusion", "interreflection", "parameterization"):
         if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
             raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
@@ -701,6 +711,38 @@ def _table_hint(name: str) -> str:
             "prt": 'realtime.diffuse, occlusion or interreflection = "prt"',
             "vct": 'realtime.occlusion or interreflection = "vct"',
             "sphere_map": 'realtime.parameterization = "sphere_map"'}[name]
+
+
+def _check_technique_tables(rt: Realtime, raw: dict, where: str) -> None:
+    """Values of the light-array and transfer tables that only make sense with some choices."""
+    from . import light_array
+
+    lights, prt = rt.lights, rt.prt
+    given_lights, given_prt = raw.get("lights", {}), raw.get("prt", {})
+    if "lights" in (rt.diffuse, rt.glossy):
+        problem = light_array.count_problem(lights.placement, lights.count)
+        if problem:
+            raise SceneError(f"{where}: realtime.lights.count = {lights.count} with realtime.lights.placement = "
+                             f"{lights.placement!r}: {problem}")
+    if "shadow_map_size" in given_lights and rt.occlusion != "shadow_maps":
+        raise SceneError(f"{where}: realtime.lights.shadow_map_size = {lights.shadow_map_size} with "
+                         f"realtime.occlusion = {rt.occlusion!r}: shadow maps are drawn for "
+                         'realtime.occlusion = "shadow_maps" only')
+    texels = lights.count * lights.shadow_map_size ** 2
+    if rt.occlusion == "shadow_maps" and texels > MAX_SHADOW_TEXELS:
+        raise SceneError(f"{where}: realtime.lights.count = {lights.count} with realtime.lights.shadow_map_size = "
+                         f"{lights.shadow_map_size}: {texels} shadow-map texels ({texels * 4 / 2**30:.2g} GiB); "
+                         f"at most {MAX_SHADOW_TEXELS} (1 GiB): fewer lights or smaller maps")
+    if rt.interreflection == "prt" and prt.bounces < 1:
+        raise SceneError(f"{where}: realtime.interreflection = 'prt' with realtime.prt.bounces = {prt.bounces}: "
+                         "interreflected transfer needs at least one bounce")
+    if prt.bounces > 0 and rt.interreflection != "prt":
+        raise SceneError(f"{where}: realtime.prt.bounces = {prt.bounces} with realtime.interreflection = "
+                         f"{rt.interreflection!r}: bounces are gathered for realtime.interreflection = \"prt\" only")
+    if "rays" in given_prt and rt.occlusion != "prt":
+        raise SceneError(f"{where}: realtime.prt.rays = {prt.rays} with realtime.occlusion = {rt.occlusion!r}: "
+                         'visibility rays are traced for realtime.occlusion = "prt" only (unshadowed transfer is '
+                         "exact)")
 
 
 def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
