@@ -221,7 +221,7 @@ def _cmd_gate(args: argparse.Namespace) -> int:
         md = plan.file(args.markdown, "--markdown") if args.markdown else None
         record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
         with outputs.progress("gate", 4 * len(loaded)) as step:
-            results = gate.compare_all(loaded, baseline, tolerances, step)
+            results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline))
         for line in gate.warning_lines(results, baseline):
             print(line, file=sys.stderr)
         print(gate.format_table(results))

@@ -1,8 +1,8 @@
 """`iblcheck gate`: the CI image-quality gate, by thresholds and against a baseline.
 
 Thresholds per scene: the command line's (`--min-psnr`, `--min-ssim`, `--max-flip`) override
-the scene's `[gate]` table. A scene with no threshold and no baseline to compare with is a usage
-error (a gate that cannot fail is no gate). Exit code 0 when every check passes, 1 when any fails
+the scene's `[gate]` table. A scene with no threshold, no baseline to compare with and none to
+write is a usage error (a gate that cannot fail is no gate). Exit code 0 when every check passes, 1 when any fails
 (design.md section 6); bad scenes and a bad baseline file are refused before anything renders
 (exit 2). `--junit FILE` writes JUnit XML: one test case per scene, a <failure> naming each failed
 check, properties with every value; `--markdown FILE` a short table for a pull-request comment.
@@ -391,13 +391,14 @@ def flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | None = None,
-                step: Callable[[str], None] | None = None) -> list[GateResult]:
+                step: Callable[[str], None] | None = None, noise: bool = True) -> list[GateResult]:
     """Measure every planned scene, check its thresholds and, with `baseline` (read_baseline), compare
-    it with its record (`tolerances`: tolerance_db, tolerance_ssim, tolerance_flip, max_time_ratio)."""
+    it with its record (`tolerances`: tolerance_db, tolerance_ssim, tolerance_flip, max_time_ratio).
+    `noise=False` skips the metrics' noise estimates (a gate by thresholds alone needs none)."""
     results = []
     for p in loaded:
         p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
-        m = measure(p.scene, step)
+        m = measure(p.scene, step, noise=noise or baseline is not None)
         record = make_record(p, m)
         r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds), m.seconds, record)
         if baseline is not None:
