@@ -485,8 +485,34 @@ def teapot(resolution: int = 12) -> Mesh:
     return make_mesh("teapot", p, tris, normals=nr, convex=False, closed=False)
 
 
-BUILTIN_MESHES = {"sphere": sphere, "torus": torus, "teapot": teapot, "bowl": bowl, "plane": plane}
-DEFAULT_RESOLUTION = {"sphere": 64, "torus": 48, "teapot": 12, "bowl": 48, "plane": 1}
+# --------------------------------------------------------------------------- shapes read from packaged files
+
+
+def _packaged(name: str, shape: str) -> Mesh:
+    """A mesh file shipped in scenes/data/meshes, read like any user's file (load_file), named `shape`."""
+    import dataclasses
+
+    with resources.as_file(resources.files("scenes").joinpath(f"data/meshes/{name}")) as path:
+        return dataclasses.replace(load_file(path), name=shape)
+
+
+def pawn(resolution: int | None = None) -> Mesh:
+    """A chess pawn from pawn.glb (made by data/meshes/make_models.py): a turned profile exported
+    z-up with a root node that turns it y-up into the unit sphere, and smooth normals with hard edges
+    above 40 degrees in its NORMAL attribute. `resolution` has no effect (a file)."""
+    return _packaged("pawn.glb", "pawn")
+
+
+def rook(resolution: int | None = None) -> Mesh:
+    """A chess rook from rook.stl (make_models.py): a turned body and six box merlons, binary STL, so
+    without vertex normals ("auto" is flat; its scene asks for smooth with a crease angle).
+    `resolution` has no effect (a file)."""
+    return _packaged("rook.stl", "rook")
+
+
+BUILTIN_MESHES = {"sphere": sphere, "torus": torus, "teapot": teapot, "bowl": bowl, "plane": plane,
+                  "pawn": pawn, "rook": rook}
+DEFAULT_RESOLUTION = {"sphere": 64, "torus": 48, "teapot": 12, "bowl": 48, "plane": 1, "pawn": 1, "rook": 1}
 
 
 #: triangles of each builtin shape at a resolution (checked against MAX_TRIANGLES before building)
@@ -494,7 +520,8 @@ BUILTIN_TRIANGLES = {"sphere": lambda r: 2 * max(3, 2 * r) * (max(2, r) - 1),
                      "torus": lambda r: 2 * max(3, 2 * r) * max(3, r),
                      "teapot": lambda r: 32 * 2 * max(2, r) ** 2,
                      "bowl": lambda r: 2 * max(3, 2 * r) * (2 * max(2, r // 2) - 1) + 2 * max(3, 2 * r),
-                     "plane": lambda r: 2 * max(1, r) ** 2}
+                     "plane": lambda r: 2 * max(1, r) ** 2,
+                     "pawn": lambda r: 5248, "rook": lambda r: 2504}  # the files' (tests check)
 
 
 def builtin_triangles(name: str, resolution: int | None = None) -> int:
@@ -532,7 +559,8 @@ MESH_FORMATS = {".obj": "obj", ".ply": "ply", ".stl": "stl", ".off": "off", ".gl
 
 def load_file(path: str | Path, normals: str = "auto", crease_deg: float | None = None) -> Mesh:
     """Load a mesh from .obj, .ply, .stl, .off, .glb or .gltf (every node of a glTF scene, with its
-    node transform applied), shaded as `normals` says (see `make_mesh`).
+    node transform applied), shaded as `normals` says (see `make_mesh`); "auto" takes the file's vertex
+    normals, and where it has none: flat for STL and glTF (AUTO_WITHOUT_NORMALS), smooth for OBJ, PLY, OFF.
 
     trimesh parses the file (with `process=False`: nothing merged, dropped or re-wound); what it reads
     leniently (a malformed OBJ line, a PLY face of 2 corners, relative OBJ indices) is refused here, and
@@ -545,8 +573,17 @@ def load_file(path: str | Path, normals: str = "auto", crease_deg: float | None 
     if suffix not in MESH_FORMATS:
         raise MeshError(f"{path}: unsupported mesh format {suffix!r} (use {', '.join(MESH_FORMATS)})")
     data = read_input(path, "mesh file", MAX_MESH_BYTES, MeshError)
-    positions, indices, file_normals = _read(path, MESH_FORMATS[suffix], data)
+    kind = MESH_FORMATS[suffix]
+    positions, indices, file_normals = _read(path, kind, data)
+    if normals == "auto" and file_normals is None:
+        normals = AUTO_WITHOUT_NORMALS.get(kind, "smooth")
     return make_mesh(str(path), positions, indices, normals=file_normals, shading=normals, crease_deg=crease_deg)
+
+
+#: what normals = "auto" means for a file without vertex normals, where it is not "smooth": STL holds
+#: facets (no shared corners, no vertex normals), and glTF 2.0 says that "when normals are not specified,
+#: client implementations MUST calculate flat normals"
+AUTO_WITHOUT_NORMALS = {"stl": "flat", "glb": "flat", "gltf": "flat"}
 
 
 def _read(path: Path, kind: str, data: bytes) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:

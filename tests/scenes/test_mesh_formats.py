@@ -120,15 +120,28 @@ def test_every_format_reads_the_triangles_of_the_obj(tmp_path, name, data):
 
 
 def test_stl_has_no_vertex_normals_and_smooths_across_its_unshared_corners(tmp_path):
-    """STL stores three corners per facet and no vertex normals: "smooth" welds the corners by position
-    (a cube of 8 corners, diagonal normals); "auto" does the same; "file" is refused."""
+    """STL stores three corners per facet and no vertex normals: "auto" is flat (its facets); "smooth"
+    welds the corners by position (a cube of 8 corners, diagonal normals); "file" is refused."""
     (tmp_path / "cube.stl").write_bytes(stl_binary())
-    for normals in ("auto", "smooth"):
-        m = meshes.load_file(tmp_path / "cube.stl", normals)
-        assert len(m.positions) == 8
-        np.testing.assert_allclose(m.normals, np.sign(m.positions) / np.sqrt(3), atol=1e-6)
+    m = meshes.load_file(tmp_path / "cube.stl")
+    assert len(m.positions) == 36
+    np.testing.assert_allclose(m.normals[m.indices[:, 0]], m.face_normals() / np.linalg.norm(
+        m.face_normals(), axis=1, keepdims=True), atol=1e-6)
+    m = meshes.load_file(tmp_path / "cube.stl", "smooth")
+    assert len(m.positions) == 8
+    np.testing.assert_allclose(m.normals, np.sign(m.positions) / np.sqrt(3), atol=1e-6)
     with pytest.raises(MeshError, match=r'cube\.stl: normals = "file", but it has no vertex normals'):
         meshes.load_file(tmp_path / "cube.stl", "file")
+
+
+def test_glb_without_normals_is_flat_as_gltf_says(tmp_path):
+    """glTF 2.0: "When normals are not specified, client implementations MUST calculate flat normals"."""
+    (tmp_path / "bare.glb").write_bytes(glb([{"mesh": 0}]))
+    m = meshes.load_file(tmp_path / "bare.glb")
+    assert len(m.positions) == 36 and (np.abs(m.normals).max(axis=1) > 1 - 1e-6).all()
+    assert len(meshes.load_file(tmp_path / "bare.glb", "smooth").positions) == 8
+    (tmp_path / "bare.off").write_text(off_text())  # OFF (and OBJ, PLY) without normals: smooth
+    assert len(meshes.load_file(tmp_path / "bare.off").positions) == 8
 
 
 def test_ply_and_glb_normals_are_the_files(tmp_path):
@@ -264,6 +277,7 @@ BROKEN = [
     ("off face past the end", "x.off", off_text().replace("3 0 1 3\n", "3 0 1 9\n", 1).encode()),
     ("off face of 2 corners", "x.off", off_text().replace("3 0 1 3\n", "2 0 1\n", 1).encode()),
     ("off without a header", "x.off", off_text().replace("OFF\n", "").encode()),
+    ("off fractional index", "x.off", off_text().replace("3 0 1 3\n", "3 0 1.5 3\n", 1).encode()),
     ("off with a word", "x.off", off_text().replace("-0.5", "minus", 1).encode()),
     ("stl ascii facet of 2 vertices", "x.stl", stl_ascii().replace("  vertex 0.5 0.5 0.5\n", "", 1).encode()),
     ("stl ascii word", "x.stl", stl_ascii().replace("vertex -0.5", "vertex minus", 1).encode()),

@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 from scenes import MeshError, meshes
 
+DATA = Path(__file__).resolve().parents[2] / "scenes" / "data" / "meshes"
+
 
 @pytest.mark.parametrize("name,closed,convex", [
     ("sphere", True, True), ("torus", True, False), ("bowl", True, False),
-    ("plane", False, True), ("teapot", False, False),
+    ("plane", False, True), ("teapot", False, False), ("pawn", True, False), ("rook", True, False),
 ])
 def test_topology_and_convexity(name, closed, convex):
     m = meshes.builtin(name)
@@ -107,3 +111,44 @@ def test_bad_mesh_files(tmp_path):
     (tmp_path / "r.obj").write_text("v 0 0 0\nf 1 2 3\n")
     with pytest.raises(MeshError, match="missing vertex"):
         meshes.load_file(tmp_path / "r.obj")
+
+
+# --------------------------------------------------------------------------- shapes read from packaged files
+
+
+@pytest.mark.parametrize(("name", "file"), [("pawn", "pawn.glb"), ("rook", "rook.stl")])
+def test_packaged_shapes_are_their_files_and_their_stated_size(name, file):
+    m = meshes.builtin(name)
+    assert m.name == name and m.n_triangles == meshes.builtin_triangles(name)
+    assert meshes.builtin(name, 200).n_triangles == m.n_triangles  # a file: resolution changes nothing
+    np.testing.assert_array_equal(m.positions, meshes.load_file(DATA / file).positions)
+
+
+def test_the_pawn_stands_up_with_its_files_normals():
+    """pawn.glb is modelled z-up; its root node turns it y-up: the foot is at the bottom (the widest
+    part, flat, facing down) and the head at the top; its NORMAL attribute has hard rims."""
+    m = meshes.builtin("pawn")
+    p, n = m.positions.astype(np.float64), m.normals.astype(np.float64)
+    bottom = np.isclose(p[:, 1], p[:, 1].min(), atol=1e-5)
+    assert np.linalg.norm(p[bottom][:, [0, 2]], axis=1).max() == pytest.approx(np.abs(p[:, [0, 2]]).max(), rel=1e-3)
+    # a hard rim: at the foot's edge each position has two vertices, one facing down, one sideways
+    down, sideways = n[bottom, 1] < -1 + 1e-6, np.abs(n[bottom, 1]) < 1e-3
+    assert (down | sideways).all() and down.sum() > 64 and sideways.sum() == 64  # 64 sections
+    top = np.argmax(p[:, 1])
+    np.testing.assert_allclose(n[top], [0.0, 1.0, 0.0], atol=1e-3)
+    assert p[:, 1].max() == pytest.approx(-p[:, 1].min(), abs=1e-5)  # centred
+
+
+def test_make_models_writes_the_packaged_meshes(tmp_path):
+    """The generator, run again, gives the triangles of the packaged files."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("make_models", DATA / "make_models.py")
+    make_models = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(make_models)
+    make_models.write_pawn(tmp_path / "pawn.glb")
+    make_models.write_rook(tmp_path / "rook.stl")
+    for file in ("pawn.glb", "rook.stl"):
+        new, shipped = meshes.load_file(tmp_path / file), meshes.load_file(DATA / file)
+        for key in ("positions", "normals", "indices"):
+            np.testing.assert_array_equal(getattr(new, key), getattr(shipped, key))
