@@ -68,6 +68,15 @@ MUTANTS: list[tuple[str, str, str, str]] = [
     ("realtime/shaders/downsample.comp", "+ imageLoad(src, s + ivec3(0, 1, 0)) + imageLoad(src, s + ivec3(1, 1, 0));",
      "+ imageLoad(src, s + ivec3(1, 0, 0)) + imageLoad(src, s + ivec3(1, 1, 0));",
      "box filter reads one texel twice and skips another"),
+    # the light array, its shadow maps and PRT (issue 12)
+    ("realtime/shaders/lights.glsl", "if (c > 0.0) E += light_power[i].rgb", "if (c > -1.0) E += light_power[i].rgb",
+     "light array: lights below the surface's horizon count (negative cosines)"),
+    ("realtime/shaders/light_power.comp", ".rgb * row_omega[row];", ".rgb;",
+     "light array powers without the texels' solid angles"),
+    ("realtime/shaders/shadow_maps.glsl", "    return 0.25 * v;", "    return 1.0;",
+     "shadow maps never shadow"),
+    ("realtime/shaders/shade.vert", "int base = gl_VertexID * SH_COUNT * 3;", "int base = 0;",
+     "PRT: every vertex reads the first vertex's transfer"),
 ]
 
 GL_TESTS = ["tests/realtime", "tests/hard"]
