@@ -54,6 +54,8 @@ def test_second_render_reads_the_cache(cache_dir, mi, monkeypatch):
     ({"reference.seed": 1}, False),
     ({"environment.rotation_deg": 10.0}, False),
     ({"camera.fov_deg": 31.0}, False),
+    ({"realtime.diffuse": "lights", "realtime.lights.count": 12}, True),  # a real-time choice: the same reference
+    ({"realtime.diffuse": "lights", "reference.lighting": "light_array"}, False),  # the array's own reference
 ])
 def test_key_holds_what_changes_the_reference_and_nothing_else(cache_dir, overrides, hit):
     scene = small("builtin:sphere-blend", size=24, spp=16)
@@ -101,3 +103,13 @@ def test_unwritable_cache_still_returns_the_render(tmp_path, monkeypatch):
     with pytest.warns(cache.CacheWarning, match="cannot be written"):
         out = groundtruth.render(scene)
     assert out.rgb.shape == (16, 16, 3) and out.meta["cache"] == "miss"
+
+
+def test_the_light_array_reference_is_keyed_by_its_placement_and_count(cache_dir):
+    scene = small("builtin:sphere-blend", size=24, spp=16).with_overrides(
+        {"realtime.diffuse": "lights", "reference.lighting": "light_array", "realtime.lights.count": 12})
+    groundtruth.render(scene)
+    assert groundtruth.render(scene.with_overrides({"realtime.lights.count": 42})).meta["cache"] == "miss"
+    assert groundtruth.render(scene.with_overrides({"realtime.lights.placement": "median_cut",
+                                                    "realtime.lights.count": 16})).meta["cache"] == "miss"
+    assert groundtruth.render(scene).meta["cache"] == "hit"
