@@ -4,15 +4,17 @@ Without either option nothing here runs and the serial loop of experiments/sweep
 
 What is a task and what is not
 - Tasks (on the workers): every Mitsuba reference a row needs, both seeds (the reference and the
-  noise-floor render), and the quadrature (`quadrature_task`). Their cost is almost all of a sweep's.
+  noise-floor render); the precomputation of a technique that needs no GL (PRT's transfer vectors,
+  numpy + Embree, `precompute_task`, into the PRT cache that the driver's `prepare` then reads, with
+  the compute seconds kept in the entry); the paper's quadrature (`quadrature_task`). Their cost is
+  almost all of a sweep's.
   A task gets the scene as a dict (the validated TOML tree, `scene_payload`), never a live Mitsuba
   object; the worker validates it again and checks that it resolves to the same content as on the
   driver (a map or mesh file that differs on another machine is an error, not a silent mismatch).
 - The driver (this process): the plan, the real-time render of every row and its frame times (one
-  GL, the driver's, so that frame times stay comparable), the metrics, the pictures, and every
-  write of `results.jsonl`. The techniques implemented so far have no CPU precomputation (their
-  `prepare` runs in the GL context), so it stays with the real-time render.
-  Every row records the host and the GL renderer that timed it (`host`, `gl_renderer`).
+  GL, the driver's, so that frame times stay comparable), the GL half of the techniques' `prepare`,
+  the metrics, the pictures, and every write of `results.jsonl`. Every row records the host and the
+  GL renderer that timed it (`host`, `gl_renderer`).
 - Frame times on a shared machine: when a worker runs on the driver's host (`--workers N`, or a
   scheduler whose workers include this machine), rows are timed only once no reference task is left
   (`quiet` timing): rendering references beside a timed frame would change the frame time by
@@ -20,8 +22,9 @@ What is a task and what is not
   their references arrive.
 
 Keys, retries, exactly once
-- A reference task's key is `<function>-<reference content id>-s<seed>`: content-addressed like the
-  reference cache, so the rows that share a reference (a LOD-bias or face-size axis) share one task,
+- A reference task's key is `<function>-<reference content id>-s<seed>` (a precomputation's
+  `precompute-<PRT cache key>`): content-addressed like the caches, so the rows that share a
+  reference (a LOD-bias or face-size axis) share one task,
   and a resubmitted key is the same task. `retries=RETRIES`: a task that raises is tried again
   (possibly elsewhere); a task whose worker dies is rescheduled by the scheduler (up to
   `distributed.scheduler.allowed-failures` deaths, then KilledWorker).
@@ -248,6 +251,33 @@ def quadrature_task(payload: dict) -> dict:
     return {"render": render, "host": socket.gethostname(), "pid": os.getpid(), "seconds": time.perf_counter() - t0}
 
 
+def prt_settings(scene) -> tuple[int, int, int, bool] | None:
+    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes, as realtime/prt.py asks for
+    it (None: no PRT). Were the two to differ, the driver would compute the transfer again (a cache miss),
+    never use a wrong one: the cache key holds all four."""
+    rt = scene.realtime
+    if rt.diffuse != "prt":
+        return None
+    shadowed = rt.occlusion == "prt"
+    return int(rt.prt.order), max(int(rt.prt.rays) if shadowed else 0, 1), \
+        int(rt.prt.bounces) if rt.interreflection == "prt" else 0, shadowed
+
+
+def precompute_task(payload: dict, cache_dir: str | None = None) -> dict:
+    """The precomputation of a scene's real-time techniques that runs without GL: PRT's transfer vectors
+    (numpy + Embree), into the PRT cache (a task). Returns {"arrays", "info", "host", "pid", "seconds"}."""
+    from realtime.prt import transfer_objects
+    from realtime.prt_transfer import cached_transfer
+
+    scene = scene_from_payload(payload)
+    order, rays, bounces, shadowed = prt_settings(scene)
+    t0 = time.perf_counter()
+    with _cache_env(cache_dir):
+        arrays, info = cached_transfer(transfer_objects(scene), order, rays, bounces, shadowed)
+    return {"arrays": arrays, "info": info, "host": socket.gethostname(), "pid": os.getpid(),
+            "seconds": time.perf_counter() - t0}
+
+
 def _scheduler_states(keys: list, dask_scheduler=None) -> dict:
     """For `client.run_on_scheduler`: (state, retries left, times suspected of killing a worker) per key."""
     out = {}
@@ -409,6 +439,27 @@ class Cluster:
             keys.append(key)
         return keys
 
+    def submit_precompute(self, scene) -> str | None:
+        """Submit the scene's PRT transfer as a task (None: the scene has no CPU precomputation)."""
+        settings = prt_settings(scene)
+        if settings is None:
+            return None
+        from realtime.prt import transfer_objects
+        from realtime.prt_transfer import transfer_key
+
+        key = f"precompute-{transfer_key(transfer_objects(scene), *settings)}"
+        if key not in self.futures:
+            self.futures[key] = self.client.submit(precompute_task, scene_payload(scene), self._local_cache(),
+                                                   key=key, retries=self.retries, pure=False)
+            self.stats.submitted += 1
+        return key
+
+    def submit_row(self, scene) -> list[str]:
+        """Every task a row of `scene` needs: its two references, then its precomputation if it has one."""
+        keys = self.submit_references(scene)
+        pre = self.submit_precompute(scene)
+        return keys + ([pre] if pre else [])
+
     def submit_quadrature(self, scene) -> str:
         from .sweep import content_id
 
@@ -449,21 +500,24 @@ class Cluster:
             self.futures.pop(k, None)
 
     def references(self, scene) -> tuple:
-        """The scene's two reference Renders, rendered on the cluster (both seeds at once); raises the
-        task's error after its retries. For the paper suite's rows."""
+        """The scene's two reference Renders, rendered on the cluster (both seeds at once, and its PRT
+        transfer beside them, into the driver's cache); raises the task's error after its retries. For
+        the paper suite's rows."""
         from distributed import wait
 
-        keys = self.submit_references(scene)
+        keys = self.submit_row(scene)
         wait([self.futures[k] for k in keys])
         out = []
         for k in keys:
             fut = self.futures[k]
             if fut.status != "finished":
-                raise RuntimeError(f"{scene.name}: reference task {k} failed: {describe_error(fut)}")
+                self.stats.failed += 1
+                raise RuntimeError(f"{scene.name}: task {k} failed: {describe_error(fut)}")
             res = fut.result()
             self._count_finished(k, res)
-            keep_in_driver_cache(res["render"])
-            out.append(res["render"])
+            keep_in_driver_cache(res)
+            if "render" in res:
+                out.append(res["render"])
         self.release(keys)
         return tuple(out)
 
@@ -522,11 +576,23 @@ def describe_error(fut) -> str:
     return one_line(f"{type(exc).__name__}: {exc}", 400)
 
 
-def keep_in_driver_cache(render) -> None:
-    """Store a handed-back reference in the driver's cache when it is not there (a worker on another
-    machine rendered it; on one machine the worker already wrote this very file)."""
+def keep_in_driver_cache(res: dict) -> None:
+    """Store a handed-back reference (or PRT transfer) in the driver's cache when it is not there (a worker
+    on another machine made it; on one machine the worker already wrote this very file)."""
     from groundtruth import cache
 
+    if "arrays" in res:  # a PRT transfer: the entry as realtime/prt_transfer.py writes it
+        from realtime import prt_transfer
+
+        info, folder = res["info"], cache.cache_dir() / "prt"
+        if not (folder / f"{info['key']}.npz").exists():
+            prt_transfer._store(folder, info["key"], res["arrays"], {
+                "rays_traced": info["rays_traced"], "vertices": info["vertices"], "seconds": info["compute_seconds"],
+                "version": prt_transfer.TRANSFER_VERSION})
+        return
+    if "render" not in res:
+        return
+    render = res["render"]
     key = render.meta.get("key")
     if not key or (cache.cache_dir() / f"{key}.npz").exists():
         return
@@ -590,7 +656,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
     rows: dict[str, _Row] = {}
     users: dict[str, list[str]] = {}
     for spec, ov, rid in todo:
-        keys = cluster.submit_references(scenes.load(spec).with_overrides(ov))
+        keys = cluster.submit_row(scenes.load(spec).with_overrides(ov))
         rows[rid] = _Row(spec, ov, keys)
         for k in keys:
             users.setdefault(k, []).append(rid)
@@ -605,7 +671,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
     def settle(rid: str) -> None:
         r = rows[rid]
         if all(k in finished or k in failed for k in r.keys):
-            errors = [f"reference task {k} failed after {cluster.retries + 1} tries: {failed[k]}"
+            errors = [f"task {k} failed after {cluster.retries + 1} tries: {failed[k]}"
                       for k in r.keys if k in failed]
             if errors:
                 write(rid, error_row(r.spec, r.overrides, rid, "; ".join(errors)))
@@ -629,7 +695,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
                rp.TimeElapsedColumn(), rp.TextColumn("{task.description}", markup=False)]
     last_poll = 0.0
     with rp.Progress(*columns, transient=False) as progress:
-        ref_task = progress.add_task("", total=len(unique), label="references")
+        ref_task = progress.add_task("", total=len(unique), label="tasks")
         row_task = progress.add_task("", total=done + len(todo), completed=done, label="rows")
         while len(ids_written) < len(rows):
             batch = ac.next_batch(block=False) if not ac.is_empty() else []
@@ -640,7 +706,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
                 if fut.status == "finished":
                     res = fut.result()
                     cluster._count_finished(key, res)
-                    keep_in_driver_cache(res["render"])
+                    keep_in_driver_cache(res)
                     finished[key] = res
                 else:
                     failed[key] = describe_error(fut)
@@ -653,7 +719,7 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
                 r = rows[rid]
                 progress.update(row_task, description=one_line(f"{r.spec} {short(r.overrides)}", 100))
                 try:
-                    refs = tuple(finished[k]["render"] for k in r.keys)
+                    refs = tuple(finished[k]["render"] for k in r.keys[:2])
                     row = run_row(out_dir, r.spec, r.overrides, references=refs)
                 except MissingCapability:
                     raise

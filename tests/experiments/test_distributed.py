@@ -321,3 +321,18 @@ def test_sweep_on_a_running_scheduler_hands_the_references_back(tmp_path, cache)
     assert len(rows) == 4 and not any(r.error for r in rows)
     mine = sorted(p.name for p in cache.glob("*.npz"))
     assert len(mine) == 4 and mine == sorted(p.name for p in worker_cache.glob("*.npz"))
+
+
+def test_prt_precomputation_is_a_task_and_the_driver_reads_its_entry(tmp_path, cache, monkeypatch, cluster):
+    """PRT's transfer (numpy + Embree) is computed on a worker into the PRT cache; the driver's `prepare`
+    reads that very entry (no second entry of its own), and the rows equal a serial run's."""
+    spec = str(ROOT / "scenes/data/scenes/sphere-on-plane.toml")
+    axes = sweep.Axes(face_sizes=[16], lod_biases=None, extra=[("realtime.prt.order", [2, 3])])
+    prt = {**TINY, "realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.prt.rays": 16}
+    serial = sweep.run([spec], axes, tmp_path / "serial", sets=prt, report=False)
+    monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache-dask"))
+    rows = sweep.run([spec], axes, tmp_path / "dask", sets=prt, report=False, cluster=cluster)
+    assert len(rows) == 2 and not any(r.error for r in rows)
+    assert {r.id: _stable(r) for r in rows} == {r.id: _stable(r) for r in serial}
+    entries = sorted(p.name for p in (tmp_path / "cache-dask" / "prt").glob("*.npz"))
+    assert len(entries) == 2 and entries == sorted(p.name for p in (cache / "prt").glob("*.npz"))
