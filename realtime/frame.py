@@ -80,7 +80,8 @@ def render(scene) -> Render:
                 env_filter.fill_base(rotation)
                 env_filter.build_chain(chain_to)
 
-        keys = ["filter", *dict.fromkeys(t.timing_key for t in techniques if t.timing_key != "filter")]
+        keys = ["filter", *dict.fromkeys(k for t in techniques for k in (t.timing_key, *t.extra_timing_keys)
+                                         if k != "filter")]
         samples: dict[str, list[float]] = {k: [] for k in (*keys, "draw", "total", "background")}
         for k in range(rt.warmup_frames + rt.timing_frames):
             frame.rotation_deg = scene.environment.rotation_deg + k * rt.rotate_deg_per_frame
@@ -89,6 +90,9 @@ def render(scene) -> Render:
             parts["filter"] = timed(ctx, lambda: environment(frame.rotation_deg))
             for t in techniques:
                 parts[t.timing_key] += timed(ctx, lambda t=t: t.update(frame))
+                for key, ms in t.split_timings().items():  # e.g. VCT's `mip` out of its `voxelize`
+                    parts[key] += ms
+                    parts[t.timing_key] -= ms
             t_background = timed(ctx, lambda: drawer.draw_background(frame.rotation_deg))
             t_draw = timed(ctx, drawer.draw)
             if k >= rt.warmup_frames:

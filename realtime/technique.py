@@ -38,6 +38,8 @@ REGISTRY: dict[tuple[str, str], str] = {
     ("diffuse", "prt"): "realtime.prt:PrtDiffuse",
     ("occlusion", "prt"): "realtime.prt:PrtOcclusion",
     ("interreflection", "prt"): "realtime.prt:PrtInterreflection",
+    ("occlusion", "vct"): "realtime.vct:VctOcclusion",
+    ("interreflection", "vct"): "realtime.vct:VctInterreflection",
 }
 #: the scene keys that choose a technique, in the order frames run them
 EFFECT_KEYS = ("diffuse", "glossy", "occlusion", "interreflection")
@@ -69,6 +71,8 @@ class Technique:
     name: ClassVar[str]  # its value of that key: "sh", "box", ...
     simulates: ClassVar[frozenset[str]]  # the scene effects it simulates
     timing_key: ClassVar[str] = "filter"  # its per-frame key in Render.timings
+    #: keys of parts of its update it times itself (split_timings), reported apart from timing_key
+    extra_timing_keys: ClassVar[tuple[str, ...]] = ()
     #: the scene keys only this technique reads ("realtime.table." covers a whole table): a sweep
     #: varies them only where the technique runs (experiments/sweep.py)
     reads: ClassVar[tuple[str, ...]] = ()
@@ -98,6 +102,11 @@ class Technique:
 
     def defines(self) -> tuple[str, ...]:
         return ()
+
+    def split_timings(self) -> dict[str, float]:
+        """After update: {extra timing key: ms} of the parts of this update timed apart (they are
+        taken out of timing_key's time, so the frame's total is unchanged)."""
+        return {}
 
     def bind(self, prog: moderngl.Program) -> None:  # noqa: B027 (optional hook)
         """Per frame, before the objects are drawn."""

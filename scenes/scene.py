@@ -161,7 +161,7 @@ class Prt:
 
 @dataclass(frozen=True)
 class Vct:
-    """[realtime.vct]: voxel cone tracing (not implemented yet)."""
+    """[realtime.vct]: voxel cone tracing (realtime/vct.py, realtime/vct_math.py)."""
     resolution: int = 64
     cascades: int = 3
     diffuse_cones: int = 6
@@ -312,6 +312,13 @@ def _enum(*choices):
     return check, "one of " + ", ".join(f'"{c}"' for c in choices)
 
 
+def _int_choice(*choices: int):
+    def check(v):
+        return v if isinstance(v, int) and not isinstance(v, bool) and v in choices else None
+
+    return check, "one of " + ", ".join(str(c) for c in choices)
+
+
 def _vec3(lo: float = -1e6, hi: float = 1e6):
     text = f"a list of 3 numbers in [{lo:g}, {hi:g}]"
 
@@ -426,9 +433,9 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "bounces": _num(0, 16, integer=True),
     },
     "realtime.vct": {
-        "resolution": _pow2(8, 512),
+        "resolution": _pow2(8, 256),
         "cascades": _num(1, 4, integer=True),
-        "diffuse_cones": _num(1, 64, integer=True),
+        "diffuse_cones": _int_choice(4, 6, 9),
         "step": _num(0, 4, lo_open=True),
     },
     "reference": {
@@ -657,7 +664,7 @@ TECHNIQUE_TABLES = {"prefiltered": Prefiltered, "irradiance_map": IrradianceMap,
 #: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
 #: ignored. An issue that adds a technique removes its entry here (tests/realtime/test_techniques.py
 #: checks that every other choice has a module).
-NOT_IMPLEMENTED = frozenset({("occlusion", "vct"), ("interreflection", "vct")})
+NOT_IMPLEMENTED: frozenset[tuple[str, str]] = frozenset()
 #: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB)
 MAX_SHADOW_TEXELS = 1 << 28
 
@@ -756,6 +763,9 @@ def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
                   'realtime.glossy = "lights"')
     if rt.occlusion == "prt" and rt.diffuse != "prt":
         raise bad("occlusion", "diffuse", 'precomputed visibility lives in the transfer: set realtime.diffuse = "prt"')
+    if rt.interreflection == "vct" and rt.occlusion != "vct":
+        raise bad("interreflection", "occlusion", "light gathered from the voxels replaces the environment they "
+                  'block: set realtime.occlusion = "vct"')
     if rt.interreflection == "prt" and (rt.diffuse != "prt" or rt.occlusion != "prt"):
         raise bad("interreflection", "occlusion", "interreflected transfer includes its shadowing: set "
                   'realtime.diffuse = "prt" and realtime.occlusion = "prt"')

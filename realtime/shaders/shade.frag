@@ -32,6 +32,8 @@ vec3 shading_normal;
 // vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
 #include "glossy_box.glsl"
 #include "glossy_prefiltered.glsl"
+// void vct_shade(n, v, Ld, Lg): voxel cone tracing's visibility and gathered bounce (realtime/vct.py)
+#include "vct.glsl"
 
 void main() {
     vec3 n = v_normal;
@@ -61,6 +63,9 @@ void main() {
 #else
     Lg = ks * glossy_radiance(reflect(-v, n));
 #endif
+#endif
+#if defined(VCT_OCCLUSION) || defined(VCT_INTERREFLECTION)
+    vct_shade(n, v, Ld, Lg);
 #endif
     vec3 color = material_type == MATERIAL_DIFFUSE ? Ld : Lg;
 #ifdef HAS_FRESNEL

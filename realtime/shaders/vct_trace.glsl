@@ -1,0 +1,118 @@
+// Voxel cone tracing through cascaded anisotropic voxel textures (realtime/vct.py, realtime/vct_math.py).
+// Six 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel toward it),
+// each holding every cascade stacked along z (cascade c in slab [c, c+1) / C), each with its own
+// anisotropic mip chain. rgb is radiance premultiplied by alpha, a the opacity.
+uniform sampler3D vct_face_px;
+uniform sampler3D vct_face_nx;
+uniform sampler3D vct_face_py;
+uniform sampler3D vct_face_ny;
+uniform sampler3D vct_face_pz;
+uniform sampler3D vct_face_nz;
+uniform vec3 vct_centre;        // the cascades' common centre
+uniform float vct_half_extent;  // of the finest cascade (cascade c: times 2^c)
+uniform float vct_voxel;        // edge of a finest-cascade voxel (h0)
+uniform int vct_resolution;     // voxels per side of every cascade
+uniform int vct_cascades;
+uniform float vct_step;         // step along a cone, in units of its diameter there
+uniform float vct_start_voxels;  // first sample's distance from the (offset) origin, in voxels of the origin's cascade
+uniform float vct_normal_voxels; // the origin's offset along the normal, in the same voxels
+
+// the finest cascade holding p, half a voxel inside its box (-1: outside every cascade)
+int vct_cascade_of(vec3 p) {
+    vec3 q = abs(p - vct_centre);
+    float off = max(q.x, max(q.y, q.z));
+    float he = vct_half_extent;
+    for (int c = 0; c < vct_cascades; ++c) {
+        if (off <= he * (1.0 - 1.0 / float(vct_resolution))) return c;
+        he *= 2.0;
+    }
+    return -1;
+}
+
+vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
+    // stay inside the cascade's slab along z: half a texel of the coarser of the two mips read
+    float texels = float(vct_resolution) / exp2(ceil(mip));
+    float z = clamp(local.z, 0.5 / texels, 1.0 - 0.5 / texels);
+    return textureLod(tex, vec3(local.xy, (float(c) + z) / float(vct_cascades)), mip);
+}
+
+// what a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing
+// against d, weighted by d's squared components
+vec4 vct_read(vec3 p, vec3 d, int c, float mip) {
+    float he = vct_half_extent * exp2(float(c));
+    vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
+    vec3 w = d * d;
+    vec4 s = w.x * (d.x > 0.0 ? vct_fetch(vct_face_nx, local, c, mip) : vct_fetch(vct_face_px, local, c, mip));
+    s += w.y * (d.y > 0.0 ? vct_fetch(vct_face_ny, local, c, mip) : vct_fetch(vct_face_py, local, c, mip));
+    s += w.z * (d.z > 0.0 ? vct_fetch(vct_face_nz, local, c, mip) : vct_fetch(vct_face_pz, local, c, mip));
+    return s;
+}
+
+// One cone from `origin` along unit d with tan(half-angle) `tan_half`, front to back from distance t0:
+// (radiance gathered, occlusion). The level follows the cone's diameter (vct_math.Cascades.level_of):
+// lod = log2(diameter / h0) over the whole pyramid, the cascade floor(lod) but never finer than the
+// finest holding the sample, the mip lod - cascade. `lod_min` keeps the injection off level 0.
+// The footprint also stays off the surface the cone leaves: a sample's voxel is at most
+// vct_footprint_ratio times its height above the surface's tangent plane (n, through `surface`), so a
+// trilinear lookup never reaches the surface's own voxels (the self-intersection rule near the horizon).
+uniform float vct_footprint_ratio;
+vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3 surface, vec3 n) {
+    vec4 acc = vec4(0.0);
+    float t = t0;
+    float max_mip = log2(float(vct_resolution));
+    for (int i = 0; i < 512 && acc.a < 0.995; ++i) {
+        vec3 p = origin + t * d;
+        int inside = vct_cascade_of(p);
+        if (inside < 0) break;  // out of the voxels: the rest of the way is open sky
+        float height = dot(p - surface, n);
+        float diam = max(vct_voxel, min(2.0 * t * tan_half, vct_footprint_ratio * height));
+        float lod = max(log2(diam / vct_voxel), lod_min);
+        int c = clamp(int(floor(lod)), inside, vct_cascades - 1);
+        float mip = clamp(lod - float(c), 0.0, max_mip);
+        vec4 s = vct_read(p, d, c, mip);
+        float ds = vct_step * diam;
+        // opacity of a step ds through a voxel of edge vs at this level (Beer-Lambert correction)
+        float vs = vct_voxel * exp2(float(c) + mip);
+        float a0 = clamp(s.a, 0.0, 1.0);
+        float a = 1.0 - pow(1.0 - min(a0, 0.9999), ds / vs);
+        vec3 rgb = a0 > 1e-6 ? s.rgb * (a / a0) : vec3(0.0);
+        acc.rgb += (1.0 - acc.a) * rgb;
+        acc.a += (1.0 - acc.a) * a;
+        t += ds;
+    }
+    return acc;
+}
+
+// the voxel size at p (that of the finest cascade holding it; h0 outside them all)
+float vct_local_voxel(vec3 p) {
+    int c = vct_cascade_of(p);
+    return vct_voxel * exp2(float(max(c, 0)));
+}
+
+// tangent frame of n, as vct_math.tangent_frame
+mat3 vct_frame(vec3 n) {
+    vec3 helper = abs(n.y) < 0.9 ? vec3(0.0, 1.0, 0.0) : vec3(1.0, 0.0, 0.0);
+    vec3 t = normalize(cross(helper, n));
+    return mat3(t, cross(n, t), n);
+}
+
+uniform int vct_cone_count;
+uniform vec3 vct_cone_dir[9];     // in the normal's frame (z = n)
+uniform float vct_cone_weight[9]; // cosine-weighted shares of the hemisphere, sum pi
+uniform float vct_cone_tan;       // tan of the diffuse cones' half-angle
+
+// The diffuse cones about n at x: (sum_k w_k L_k = gathered irradiance, sum_k w_k (1 - a_k) / pi =
+// cosine-weighted visibility)
+vec4 vct_diffuse(vec3 x, vec3 n, float lod_min) {
+    float h = vct_local_voxel(x);
+    vec3 origin = x + vct_normal_voxels * h * n;
+    mat3 f = vct_frame(n);
+    vec3 E = vec3(0.0);
+    float V = 0.0;
+    for (int k = 0; k < vct_cone_count; ++k) {
+        vec4 r = vct_cone(origin, normalize(f * vct_cone_dir[k]), vct_cone_tan, vct_start_voxels * h, lod_min, x, n);
+        E += vct_cone_weight[k] * r.rgb;
+        V += vct_cone_weight[k] * (1.0 - r.a);
+    }
+    return vec4(E, V / 3.14159265358979323846);
+}

@@ -1,0 +1,78 @@
+#version 430
+// Voxelisation of the scene's triangles into one cascade (realtime/vct.py): one invocation per
+// triangle visits the voxels of its bounding box and keeps those the triangle overlaps (the
+// separating-axis triangle/box test of Akenine-Moller 2001: conservative). Per voxel, integer atomics
+// accumulate: the triangle count, the albedo, and for each of the six face directions a_f the
+// normal weight sum max(0, n . a_f) and the weighted normal sum max(0, n . a_f) n (a thin or folded
+// surface keeps both of its sides apart instead of averaging them to nothing). Two-sided triangles
+// count with both n and -n.
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Triangles { vec4 tri[]; };  // per triangle: p0 p1 p2 (n, two_sided) (albedo, 0)
+layout(std430, binding = 1) coherent buffer Voxels { int acc[]; };       // VOXEL_INTS per voxel
+uniform int triangle_count;
+uniform vec3 grid_min;   // the cascade's lower corner
+uniform float voxel;     // its voxel edge
+uniform int resolution;
+
+bool axis_test(vec3 axis, vec3 v0, vec3 v1, vec3 v2, vec3 half_size) {
+    float p0 = dot(v0, axis), p1 = dot(v1, axis), p2 = dot(v2, axis);
+    float r = dot(half_size, abs(axis));
+    return !(min(p0, min(p1, p2)) > r || max(p0, max(p1, p2)) < -r);
+}
+
+bool overlaps(vec3 c, vec3 hs, vec3 a, vec3 b, vec3 d) {
+    vec3 v0 = a - c, v1 = b - c, v2 = d - c;
+    vec3 e0 = v1 - v0, e1 = v2 - v1, e2 = v0 - v2;
+    vec3 n = cross(e0, e1);
+    if (abs(dot(n, v0)) > dot(hs, abs(n))) return false;
+    vec3 axes[3] = vec3[3](vec3(1, 0, 0), vec3(0, 1, 0), vec3(0, 0, 1));
+    vec3 edges[3] = vec3[3](e0, e1, e2);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) {
+            vec3 ax = cross(axes[i], edges[j]);
+            if (dot(ax, ax) > 1e-20 && !axis_test(ax, v0, v1, v2, hs)) return false;
+        }
+    return true;  // the box axes are the bounding-box test the caller did
+}
+
+void add(int base, vec3 n, vec3 albedo) {
+    const float S = NORMAL_SCALE;
+    for (int f = 0; f < 6; ++f) {
+        vec3 a = vec3(0.0);
+        a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
+        float w = max(dot(n, a), 0.0);
+        if (w <= 0.0) continue;
+        int o = base + 4 + 4 * f;
+        atomicAdd(acc[o], int(round(w * S)));
+        atomicAdd(acc[o + 1], int(round(w * n.x * S)));
+        atomicAdd(acc[o + 2], int(round(w * n.y * S)));
+        atomicAdd(acc[o + 3], int(round(w * n.z * S)));
+    }
+}
+
+void main() {
+    int t = int(gl_GlobalInvocationID.x);
+    if (t >= triangle_count) return;
+    vec3 a = tri[5 * t].xyz, b = tri[5 * t + 1].xyz, d = tri[5 * t + 2].xyz;
+    vec4 nn = tri[5 * t + 3];
+    vec3 albedo = tri[5 * t + 4].rgb;
+    vec3 lo = (min(a, min(b, d)) - grid_min) / voxel;
+    vec3 hi = (max(a, max(b, d)) - grid_min) / voxel;
+    ivec3 i0 = max(ivec3(floor(lo)), ivec3(0));
+    ivec3 i1 = min(ivec3(floor(hi)), ivec3(resolution - 1));
+    if (any(lessThan(i1, i0))) return;
+    vec3 hs = vec3(0.5 * voxel);
+    for (int z = i0.z; z <= i1.z; ++z)
+        for (int y = i0.y; y <= i1.y; ++y)
+            for (int x = i0.x; x <= i1.x; ++x) {
+                vec3 c = grid_min + (vec3(x, y, z) + 0.5) * voxel;
+                if (!overlaps(c, hs, a, b, d)) continue;
+                int base = ((z * resolution + y) * resolution + x) * VOXEL_INTS;
+                atomicAdd(acc[base], 1);
+                atomicAdd(acc[base + 1], int(round(albedo.r * ALBEDO_SCALE)));
+                atomicAdd(acc[base + 2], int(round(albedo.g * ALBEDO_SCALE)));
+                atomicAdd(acc[base + 3], int(round(albedo.b * ALBEDO_SCALE)));
+                add(base, nn.xyz, albedo);
+                if (nn.w > 0.5) add(base, -nn.xyz, albedo);
+            }
+}
