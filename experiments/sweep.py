@@ -185,8 +185,8 @@ def file_digest(path: str) -> str:
 
 
 def scene_content(scene, reference_only: bool = False) -> dict:
-    """What determines a row of `scene`: the resolved scene with file paths replaced by the files'
-    digests (the [gate] table is left out: it changes no measurement). `reference_only` keeps what
+    """What determines a row of `scene`: the resolved scene with file paths replaced by digests of
+    their content (a map's bytes, a mesh's arrays as read) (the [gate] table is left out: it changes no measurement). `reference_only` keeps what
     the reference depends on (no [realtime], no tone mapping)."""
     from scenes.meshes import BUILTIN_MESHES
 
@@ -198,7 +198,13 @@ def scene_content(scene, reference_only: bool = False) -> dict:
         env["map"] = {"sha256": file_digest(scene.environment.map)}
     for obj, od in zip(scene.objects, d["objects"], strict=True):
         if obj.shape not in BUILTIN_MESHES:
-            od["shape"] = {"sha256": file_digest(obj.shape)}
+            # the mesh as read, not the file's bytes: a .gltf's buffers live in other files
+            import numpy as np
+
+            h = hashlib.sha256()
+            for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):
+                h.update(np.ascontiguousarray(arr).tobytes())
+            od["shape"] = {"mesh_sha256": h.hexdigest()}
     if reference_only:
         for key in ("realtime", "tonemap", "name"):
             d.pop(key, None)

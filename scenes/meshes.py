@@ -512,6 +512,8 @@ def rook(resolution: int | None = None) -> Mesh:
 
 BUILTIN_MESHES = {"sphere": sphere, "torus": torus, "teapot": teapot, "bowl": bowl, "plane": plane,
                   "pawn": pawn, "rook": rook}
+#: builtin shapes read from packaged files: no `resolution` to choose
+PACKAGED_MESHES = frozenset({"pawn", "rook"})
 DEFAULT_RESOLUTION = {"sphere": 64, "torus": 48, "teapot": 12, "bowl": 48, "plane": 1, "pawn": 1, "rook": 1}
 
 

@@ -608,6 +608,10 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         defaults = dict(materials.TYPES[mat_type].defaults)
         obj["material"] = Material(**{**defaults, **mat})
         shape = obj.get("shape", "sphere")
+        if shape in meshes.PACKAGED_MESHES and "resolution" in obj:
+            raise SceneError(f"{where}: {prefix}.resolution = {obj['resolution']} with {prefix}.shape = {shape!r}: "
+                             f"the {shape} is a packaged model with a fixed tessellation; resolution applies to "
+                             f"{', '.join(sorted(set(meshes.BUILTIN_MESHES) - meshes.PACKAGED_MESHES))}")
         if shape in meshes.BUILTIN_MESHES and meshes.builtin_triangles(shape, obj.get("resolution")) > \
                 meshes.MAX_TRIANGLES:
             raise SceneError(f"{where}: {prefix}.resolution = {obj.get('resolution')}: a {shape} of "

@@ -38,9 +38,11 @@ def test_axes_a_scene_cannot_use_are_dropped_and_rows_not_repeated():
 
 
 def test_plan_validates_every_configuration_before_rendering():
-    with pytest.raises(InputError, match="not implemented yet"):
+    # the second configuration is invalid (a light count no polyhedron has): refused before any render
+    with pytest.raises(InputError, match="realtime.lights.count"):
         sweep.plan(["builtin:sphere-phong"], sweep.Axes(face_sizes=[16], lod_biases=None,
-                                                         extra=[("realtime.glossy", ["box", "lights"])]))
+                                                         extra=[("realtime.glossy", ["lights"]),
+                                                                ("realtime.lights.count", [42, 40])]))
 
 
 @pytest.mark.parametrize(("argv", "want"), [
@@ -123,12 +125,15 @@ def test_technique_tables_vary_only_where_read():
 def test_technique_axes_come_from_the_techniques_declarations():
     from realtime import technique
 
+    import math
+
     got = configs("builtin:sphere-diffuse", technique_axes=True)
-    sh_axes = technique.technique_class("diffuse", "sh").axes
-    irr_axes = technique.technique_class("diffuse", "irradiance_map").axes
-    n_sh = len(sh_axes["realtime.sh_order"]) * len(sh_axes["realtime.sh_window"])
-    n_irr = len(irr_axes["realtime.irradiance_map.size"]) * len(irr_axes["realtime.irradiance_map.source_size"])
-    assert len(got) == n_sh + n_irr
+    # every diffuse technique, each with the product of its own declared axes (sphere-diffuse is convex:
+    # no occlusion or interreflection techniques)
+    want = sum(math.prod(len(v) for v in technique.technique_class(key, value).axes.values())
+               for key, value in technique.REGISTRY if key == "diffuse")
+    assert len(got) == want
+    assert {c["realtime.diffuse"] for c in got} == {v for k, v in technique.REGISTRY if k == "diffuse"}
     assert all(("realtime.sh_order" in c) == (c["realtime.diffuse"] == "sh") for c in got)
     assert not any("realtime.glossy" in c for c in got)  # sphere-diffuse has no glossy effect
 

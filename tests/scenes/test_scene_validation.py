@@ -186,3 +186,9 @@ def test_every_builtin_scene_loads():
     assert required <= set(names)
     envs = {scenes.load(f"builtin:{n}").environment.map for n in names}
     assert len(envs) >= 4  # under different builtin environments
+
+
+@pytest.mark.parametrize("shape", ["pawn", "rook"])
+def test_a_packaged_model_has_no_resolution_to_choose(shape):
+    with pytest.raises(SceneError, match=rf"objects\[0\].resolution = 8 with objects\[0\].shape = '{shape}'"):
+        scenes.load("builtin:sphere-diffuse").with_overrides({"objects.0.shape": shape, "objects.0.resolution": 8})
