@@ -417,9 +417,12 @@ def run(out: Path, quick: bool = False, workers: int | None = None, scheduler: s
         if cluster is None and workers is None and scheduler is None:
             return _run(out, settings, quick)
         from . import distributed
+        from .text import one_line
 
         with distributed.maybe_cluster(workers, scheduler, cluster) as cl:
-            return _run(out, settings, quick, cl)
+            index = _run(out, settings, quick, cl)
+            print(one_line(cl.summary()))
+            return index
 
 
 def _run(out: Path, settings: Settings, quick: bool, cluster=None) -> Path:
