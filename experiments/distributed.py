@@ -368,6 +368,12 @@ class Cluster:
             except (OSError, TimeoutError) as exc:
                 raise InputError(f"--scheduler {self.scheduler}: no Dask scheduler answered within "
                                  f"{CONNECT_TIMEOUT_S} s ({type(exc).__name__})") from None
+            try:
+                self.client.wait_for_workers(1, timeout=CONNECT_TIMEOUT_S)
+            except (OSError, TimeoutError):
+                raise MissingCapability(f"no Dask worker is connected to {self.scheduler} (waited "
+                                        f"{CONNECT_TIMEOUT_S} s)", f"start `dask worker {self.scheduler}` on the "
+                                        "machines that should render") from None
         self.client.register_plugin(WorkerSetup(threads), name="iblcheck-setup")
         self.setup = {addr: info for addr, info in self.client.run(setup_info).items() if info is not None}
         self.start_s = time.perf_counter() - t0
@@ -645,6 +651,14 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
              echo: Callable[[str], None] | None = print) -> list:
     """The sweep on `cluster`: submit every row's references, then, as they complete, render each row's
     real-time part here and append the row (see the module docstring). Returns the rows written."""
+    try:
+        return _run_rows(cluster, out_dir, store, todo, done, echo)
+    finally:  # an interrupted run leaves no task held (a cluster given by the caller lives on)
+        cluster.futures.clear()
+
+
+def _run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict, str]], done: int,
+              echo: Callable[[str], None] | None) -> list:
     from distributed import as_completed
     from rich import progress as rp
 
