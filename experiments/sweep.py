@@ -186,8 +186,8 @@ def file_digest(path: str) -> str:
 
 def scene_content(scene, reference_only: bool = False) -> dict:
     """What determines a row of `scene`: the resolved scene with file paths replaced by digests of
-    their content (a map's bytes, a mesh's arrays as read) (the [gate] table is left out: it changes no measurement). `reference_only` keeps what
-    the reference depends on (no [realtime], no tone mapping)."""
+    their content (a map's bytes, a mesh's arrays as read); the [gate] table is left out (it changes no
+    measurement). `reference_only` keeps what the reference depends on (no [realtime], no tone mapping)."""
     from scenes.meshes import BUILTIN_MESHES
 
     d = scene.to_dict()
