@@ -9,8 +9,8 @@ light i's tile with percentage-closer filtering (hardware bilinear depth compare
 
 Bias, in units of one shadow texel's world size h = 2R / shadow_map_size (the usual normal-offset
 practice: moving the receiver along its normal removes acne on curved receivers without the
-peter-panning of a large depth bias): the receiver moves NORMAL_OFFSET_TEXELS h along its normal and its depth is compared
-DEPTH_BIAS_TEXELS h closer to the light.
+peter-panning of a large depth bias): the receiver moves NORMAL_OFFSET_TEXELS h along its normal and
+its depth is compared DEPTH_BIAS_TEXELS h closer to the light.
 
 It shadows whatever the array lights: both lobes when `diffuse` and `glossy` are both "lights"; a lobe
 lit by another technique (e.g. the paper's box-chain glossy) stays unshadowed and is reported as

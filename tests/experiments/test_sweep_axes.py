@@ -123,9 +123,9 @@ def test_technique_tables_vary_only_where_read():
 
 
 def test_technique_axes_come_from_the_techniques_declarations():
-    from realtime import technique
-
     import math
+
+    from realtime import technique
 
     got = configs("builtin:sphere-diffuse", technique_axes=True)
     # every diffuse technique, each with the product of its own declared axes (sphere-diffuse is convex:
