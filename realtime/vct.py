@@ -51,12 +51,12 @@ from .gpu import shader_source
 from .technique import Frame, Technique, set_uniform
 
 #: the cones' origin moves this many voxels along the surface normal (self-intersection offset)
-NORMAL_OFFSET_VOXELS = 1.0
+NORMAL_OFFSET_VOXELS = 1.5
 #: and their first sample is this many voxels along the cone from there
 START_OFFSET_VOXELS = 1.0
 #: a cone sample's voxel is at most this times its height above the surface's tangent plane (its trilinear
 #: footprint never reaches the surface's own voxels: the self-intersection rule near the horizon)
-FOOTPRINT_RATIO = 0.5
+FOOTPRINT_RATIO = 0.33
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
 #: injection's visibility cones read mips >= this (level 0 is being written in the same pass)
@@ -119,11 +119,13 @@ class VoxelScene:
     """The scene's voxel cascades on the GPU: voxelised, injected and mipmapped once per frame."""
 
     def __init__(self, ctx: moderngl.Context, objects, resolution: int, cascades: int, diffuse_cones: int,
-                 step: float, bounces: int = 1) -> None:
+                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None) -> None:
+        """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
+        `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for)."""
         self.ctx = ctx
         self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
         lo, hi = scene_bounds(objects)
-        self.grid = vct_math.cascades_for(lo, hi, resolution, cascades)
+        self.grid = grid or vct_math.cascades_for(lo, hi, resolution, cascades)
         self.cones = vct_math.cone_set(diffuse_cones)
         records = triangle_records(objects)
         self.triangle_count = len(records) // 5
@@ -253,18 +255,26 @@ class VoxelScene:
     def read_faces(self, level: int = 0) -> np.ndarray:
         """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
         r = self.resolution >> level
+        prog = self.ctx.compute_shader(shader_source("vct_dump.comp"))
+        buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
         out = []
         for tex in self.faces:
-            data = np.frombuffer(tex.read(level=level), dtype="f2").astype("f4")
-            vol = data.reshape(self.count * r, r, r, 4)  # [z, y, x]
+            tex.bind_to_image(0, read=True, write=False, level=level)
+            buf.bind_to_storage_buffer(1)
+            prog["size"] = (r, r, r * self.count)
+            prog.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+            vol = np.frombuffer(buf.read(), dtype="f4").reshape(self.count * r, r, r, 4)  # [z, y, x]
             out.append(vol.reshape(self.count, r, r, r, 4).transpose(0, 3, 2, 1, 4))
+        buf.release()
+        prog.release()
         return np.stack(out)
 
     def write_level0(self, faces: np.ndarray) -> None:
         """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba]."""
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
-            tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes(), level=0)
+            tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
 
     def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
         """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""

@@ -1,0 +1,157 @@
+"""The numpy half of voxel cone tracing (realtime/vct_math.py), by hand, without GL; and the
+[realtime.vct] table's checks (scenes/scene.py)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+import scenes
+from realtime import technique, vct_math
+from scenes.scene import SceneError
+
+
+@pytest.mark.parametrize("count", [4, 6, 9])
+def test_cone_weights_cover_the_cosine_lobe(count):
+    cones = vct_math.cone_set(count)
+    assert len(cones.directions) == count == len(cones.weights)
+    assert cones.weights.sum() == pytest.approx(math.pi, rel=1e-12)
+    assert np.allclose(np.linalg.norm(cones.directions, axis=1), 1.0)
+    assert (cones.directions[:, 2] > 0).all()  # all in the upper hemisphere
+    # the cone along the normal carries the largest share (it sees the brightest part of the cosine lobe)
+    assert cones.weights[0] == cones.weights.max()
+    # the ring's cones are equal by symmetry
+    assert np.allclose(cones.weights[1:], cones.weights[1], rtol=1e-2)
+
+
+def test_six_cones_are_the_seeds_sixty_degrees_and_apertures_shrink_with_count():
+    assert math.degrees(2 * vct_math.cone_set(6).half_angle) == pytest.approx(60.0)
+    a4, a6, a9 = (vct_math.cone_set(n).half_angle for n in (4, 6, 9))
+    assert a4 > a6 > a9
+    with pytest.raises(ValueError, match="4, 6, 9"):
+        vct_math.cone_set(5)
+
+
+def test_glossy_cone_follows_the_phong_lobe():
+    # 2 pi (1 - cos a) = 2 pi / (N + 1)
+    a = vct_math.glossy_half_angle(50.0)
+    assert 2 * math.pi * (1 - math.cos(a)) == pytest.approx(2 * math.pi / 51)
+    assert math.degrees(vct_math.glossy_half_angle(0.0)) == pytest.approx(30.0)  # clamped
+    assert math.degrees(vct_math.glossy_half_angle(1e7)) == pytest.approx(1.0)  # clamped
+    assert vct_math.glossy_half_angle(10.0) > vct_math.glossy_half_angle(100.0)
+
+
+def test_tangent_frame_is_orthonormal_with_n_last():
+    for n in ([0, 1, 0], [1, 0, 0], [0.3, -0.4, 0.866]):
+        f = vct_math.tangent_frame(np.array(n, dtype=float))
+        assert np.allclose(f @ f.T, np.eye(3), atol=1e-12)
+        assert np.allclose(f[2], np.array(n) / np.linalg.norm(n))
+
+
+def test_cascades_double_and_level_selection_follows_the_cone_diameter():
+    g = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 3)
+    h = g.voxel_size
+    assert h == pytest.approx(2.0 / 32)
+    assert [g.half_extent_of(c) for c in range(3)] == [1.0, 2.0, 4.0]
+    assert g.cascade_of(np.array([0.5, 0, 0])) == 0
+    assert g.cascade_of(np.array([1.5, 0, 0])) == 1
+    assert g.cascade_of(np.array([3.5, 0, 0])) == 2
+    assert g.cascade_of(np.array([4.5, 0, 0])) == -1
+    origin = np.zeros(3)
+    assert g.level_of(origin, h) == (0, 0.0)
+    assert g.level_of(origin, 2 * h) == (1, 0.0)  # cascade 1's voxels are 2 h
+    assert g.level_of(origin, 4 * h) == (2, 0.0)
+    c, mip = g.level_of(origin, 16 * h)  # beyond the cascades: the outermost one's mips
+    assert (c, mip) == (2, pytest.approx(2.0))
+    # a narrow cone outside the finest cascade: the finest cascade holding it, at its level 0
+    assert g.level_of(np.array([1.5, 0, 0]), h) == (1, 0.0)
+    one = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 1)  # a plain 3D texture: its own mips
+    assert one.level_of(origin, 4 * h) == (0, pytest.approx(2.0))
+
+
+def test_cascaded_memory_against_one_texture_of_the_same_finest_voxel():
+    g = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 64, 3)
+    per = g.bytes_per_cascade(48)
+    assert per == sum((64 >> m) ** 3 for m in range(7)) * 48
+    single = g.single_texture_bytes(48)
+    assert single == sum((256 >> m) ** 3 for m in range(9)) * 48
+    assert 3 * per < single / 20  # three 64^3 cascades against one 256^3 texture
+    lo, hi = np.array([-1.0, 0.0, -2.0]), np.array([1.0, 1.0, 2.0])
+    c = vct_math.cascades_for(lo, hi, 32, 2, margin=1.0)
+    assert c.centre == (0.0, 0.5, 0.0) and c.half_extent_of(1) == pytest.approx(2.0)
+
+
+def test_anisotropic_mip_of_a_half_filled_voxel():
+    # a 2x2x2 block whose +X half is opaque red, the -X half empty
+    faces = np.zeros((6, 2, 2, 2, 4))
+    faces[:, 1, :, :] = [1.0, 0.0, 0.0, 1.0]
+    m = vct_math.anisotropic_mip(faces)[:, 0, 0, 0]
+    # along X every pair holds one opaque child: opaque from +X and from -X
+    assert m[0, 3] == pytest.approx(1.0) and m[1, 3] == pytest.approx(1.0)
+    # along Y or Z half the pairs are empty: half opaque
+    for f in (2, 3, 4, 5):
+        assert m[f, 3] == pytest.approx(0.5)
+    # directional colour: a +X face that is green on the filled children's -X side only
+    faces[1, 1, :, :] = [0.0, 1.0, 0.0, 1.0]  # what the filled half emits toward -X
+    m = vct_math.anisotropic_mip(faces)[:, 0, 0, 0]
+    assert np.allclose(m[0], [1, 0, 0, 1]) and np.allclose(m[1], [0, 1, 0, 1])  # behind an empty half: seen as is
+    # a cone travelling +X reads the -X face (what leaves toward it), one travelling -X the +X face
+    assert np.allclose(vct_math.read_direction(m, np.array([1.0, 0, 0])), [0, 1, 0, 1])
+    assert np.allclose(vct_math.read_direction(m, np.array([-1.0, 0, 0])), [1, 0, 0, 1])
+    d = np.array([1.0, 1.0, 0.0]) / math.sqrt(2)
+    assert vct_math.read_direction(m, d)[3] == pytest.approx(0.75)
+
+
+def test_front_to_back_inside_the_mip():
+    # along X: a half-transparent blue child in front of an opaque red one, seen from +X
+    faces = np.zeros((6, 2, 2, 2, 4))
+    faces[:, 1] = [0.0, 0.0, 0.5, 0.5]  # premultiplied
+    faces[:, 0] = [1.0, 0.0, 0.0, 1.0]
+    m = vct_math.anisotropic_mip(faces)[:, 0, 0, 0]
+    assert np.allclose(m[0], [0.5, 0.0, 0.5, 1.0])  # from +X: blue in front
+    assert np.allclose(m[1], [1.0, 0.0, 0.0, 1.0])  # from -X: the opaque red hides the blue
+
+
+def test_cap_visibility_and_surface_bound():
+    assert vct_math.cap_visibility(0.5, 1.0) == pytest.approx(0.75)
+    assert vct_math.surface_voxel_bound(1.0, 0.1) > 4 * math.pi / 0.01
+
+
+def small(**ov):
+    return scenes.load("builtin:sphere-on-plane").with_overrides(ov)
+
+
+@pytest.mark.parametrize(("key", "value", "allowed"), [
+    ("realtime.vct.resolution", 12, "power of two in [8, 256]"),
+    ("realtime.vct.resolution", 512, "power of two in [8, 256]"),
+    ("realtime.vct.cascades", 5, "[1, 4]"),
+    ("realtime.vct.diffuse_cones", 5, "one of 4, 6, 9"),
+    ("realtime.vct.diffuse_cones", 6.0, "one of 4, 6, 9"),
+    ("realtime.vct.step", 0.0, "(0, 4]")])
+def test_vct_table_values_are_checked_naming_the_key(key, value, allowed):
+    with pytest.raises(SceneError) as err:
+        small(**{"realtime.occlusion": "vct", key: value})
+    assert key.split(".")[-1] in str(err.value) and allowed in str(err.value)
+
+
+def test_vct_combinations_and_unused_table():
+    with pytest.raises(SceneError) as err:
+        small(**{"realtime.interreflection": "vct"})
+    assert "realtime.interreflection" in str(err.value) and "realtime.occlusion" in str(err.value)
+    with pytest.raises(SceneError, match="realtime.vct"):
+        small(**{"realtime.vct.resolution": 32})  # nobody reads the table
+    s = small(**{"realtime.occlusion": "vct", "realtime.vct.resolution": 32})
+    assert s.realtime.vct.resolution == 32
+
+
+def test_unsimulated_effects_of_vct_configurations():
+    assert technique.unsimulated_effects(small(**{"realtime.occlusion": "vct"})) == ["interreflection"]
+    both = small(**{"realtime.occlusion": "vct", "realtime.interreflection": "vct"})
+    assert technique.unsimulated_effects(both) == []
+    # a glossy object: the glossy cone reaches its lobe too
+    torus = scenes.load("builtin:torus-phong").with_overrides({"realtime.occlusion": "vct",
+                                                                 "realtime.interreflection": "vct"})
+    assert technique.unsimulated_effects(torus) == []
+    assert technique.owner_of("realtime.vct.cascades") == ("occlusion", "vct")
