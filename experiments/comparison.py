@@ -111,6 +111,7 @@ def format_table(rows: list[dict]) -> str:
             ("floor dB", "noise_floor_psnr", "{:.2f}"),
             ("SSIM", "ssim", "{:.4f}"), ("FLIP", "flip", "{:.4f}"), ("relMSE", "rel_mse", "{:.3g}"),
             ("filter ms", ("realtime_ms", "filter"), "{:.2f}"), ("draw ms", ("realtime_ms", "draw"), "{:.2f}"),
+            ("frame ms", ("realtime_ms", "total"), "{:.2f}"),  # every per-frame key (lights, shadow, ...) + draw
             ("ref s", "reference_s", "{:.1f}"), ("spp", "reference_spp", "{}"), ("pixels", "pixels", "{}")]
 
     def get(row, key):
