@@ -278,6 +278,29 @@ def summarize(per_scene: dict, splits: list[list[str]]) -> list[str]:
     for row in splits:
         out.append(f"{row[0]}, {row[1]} lights: the array itself is {row[2]} dB from the environment "
                    f"(mean ratio {row[3]}); shadow maps ({row[5]}) are {row[4]} dB from the array's exact visibility.")
+    out += seed_claims(per_scene, splits)
+    return out
+
+
+def seed_claims(per_scene: dict, splits: list[list[str]]) -> list[str]:
+    """The seed's "about 42 lights are enough" and Debevec's "64 median-cut lights come close on a cathedral
+    probe", checked: an array is enough where its own discretisation error (array against environment, exact
+    shadows and bounces on both sides) is well below the error of the best real-time image of the scene, so
+    that it is not what limits the result (3 dB margin: half the error)."""
+    out = []
+    for name, (rows, _) in per_scene.items():
+        ok = [r for r in rows if r.psnr_unbiased is not None]
+        if not ok:
+            continue
+        top = max(ok, key=lambda r: r.psnr_unbiased)
+        for split in (x for x in splits if x[0] == name and x[1] in ("42 geodesic", "64 median cut")):
+            value = float(split[2].split()[0])
+            floor = " (at the references' resolution)" if "floor" in split[2] else ""
+            verdict = ("enough: its discretisation is not what limits this scene" if value >= top.psnr_unbiased + 3.0
+                       else "not enough: the array's own discretisation is as large as, or larger than, the error "
+                       "of the best real-time image")
+            out.append(f"{name}: {split[1]} lights are {verdict} ({value:.2f} dB{floor} from the environment, against "
+                       f"{top.psnr_unbiased:.2f} dB for the best real-time image, {label(top)}).")
     return out
 
 
