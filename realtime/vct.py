@@ -18,7 +18,7 @@ Every frame (timed `voxelize`, its mips as `mip`):
    face direction a_f the weight max(0, n . a_f) and the weighted normal (the normal-weighted scheme:
    the mean of a thin wall's normals would face nowhere);
 2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
-3. injection (inject = 1): each face's direct radiance (W_f / count) albedo / pi E(n_f) V(n_f), E the
+3. injection (inject = 1): each face's direct radiance (W_f / max_g W_g) albedo / pi E(n_f) V(n_f), E the
    environment's SH9 irradiance (the scene's own when `diffuse = "sh"` with the paper's order; otherwise
    the environment filter's SH9 of the same level), V the diffuse cones' visibility through the voxels
    themselves (mips >= 1: level 0 is being written); then the radiance mips. `bounces` > 1 (VoxelScene

@@ -3,7 +3,7 @@
 // OCCUPANCY pass: alpha = 1 where a triangle touched the voxel, rgb = 0 (the opacity the visibility
 // cones of the INJECT pass trace through, after its mips are built).
 // INJECT pass: each face f that some triangle faces (weight W_f = sum max(0, n . a_f) > 0) gets the
-// direct radiance leaving toward a_f, normal-weighted: (W_f / count) * albedo / pi * (E(n_f) V(n_f)
+// direct radiance leaving toward a_f, normal-weighted: (W_f / max_g W_g) * albedo / pi * (E(n_f) V(n_f)
 // + E_bounce(n_f)), n_f the face's weighted mean normal, E the environment's SH9 irradiance (the
 // scene's diffuse technique's M when it is SH9), V the diffuse cones' visibility through the voxels
 // themselves (mips >= 1 only: level 0 is being written), E_bounce what the same cones gather from the
@@ -54,6 +54,10 @@ void main() {
     vec3 x = vct_centre - vec3(he) + (vec3(g) + 0.5) * h;
     // faces whose mean normals agree (a flat surface: up to three faces share one normal) share one set
     // of cones: at most six sets, usually one, two for a thin wall's two sides
+    // normal-weighted faces, normalised by the voxel's most-faced direction: a flat surface seen along
+    // its normal reads its full radiance (sum_a n_a^2 w_a = 1 for an axis-aligned or diagonal normal)
+    float W_max = 0.0;
+    for (int f = 0; f < 6; ++f) W_max = max(W_max, float(acc[base + 4 + 4 * f]));
     vec3 done_n[6];
     vec3 done_E[6];
     int done = 0;
@@ -75,7 +79,7 @@ void main() {
                 done_E[done] = E;
                 ++done;
             }
-            L = min(W / float(count), 1.0) * albedo / 3.14159265358979323846 * done_E[k];
+            L = (W * NORMAL_SCALE / W_max) * albedo / 3.14159265358979323846 * done_E[k];
         }
         put(f, q, vec4(L, 1.0));
     }

@@ -63,7 +63,16 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
     for (int i = 0; i < 512 && acc.a < 0.995; ++i) {
         vec3 p = origin + t * d;
         int inside = vct_cascade_of(p);
-        if (inside < 0) break;  // out of the voxels: the rest of the way is open sky
+        bool last = inside < 0;
+        if (last) {
+            // leaving the voxels: one last sample where the cone crosses the outermost cascade's boundary
+            // (a wall near the boundary is not stepped over), then open sky
+            float he = vct_half_extent * exp2(float(vct_cascades - 1)) * (1.0 - 1.0 / float(vct_resolution));
+            vec3 q = clamp(p - vct_centre, vec3(-he), vec3(he));
+            p = vct_centre + q;
+            inside = vct_cascades - 1;
+            if (i == 0) break;
+        }
         float height = dot(p - surface, n);
         float diam = max(vct_voxel, min(2.0 * t * tan_half, vct_footprint_ratio * height));
         float lod = max(log2(diam / vct_voxel), lod_min);
@@ -78,6 +87,7 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         vec3 rgb = a0 > 1e-6 ? s.rgb * (a / a0) : vec3(0.0);
         acc.rgb += (1.0 - acc.a) * rgb;
         acc.a += (1.0 - acc.a) * a;
+        if (last) break;
         t += ds;
     }
     return acc;
