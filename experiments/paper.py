@@ -16,6 +16,10 @@
     E8 occlusion  what shadows and bounces cost: the light array without and with shadow maps, PRT orders,
                   rays and bounces on bowl-diffuse, teapot-blend and sphere-on-plane, the array's error split
                   into discretisation and shadows (experiments/occlusion.py).
+    E10 interreflection  cascaded voxel cone tracing on cornell-open, bowl-diffuse and torus-phong: direct only,
+                  + occlusion, + interreflection over resolution x cascades x cones; voxel memory against one
+                  3D texture; the indirect energy against the path tracer's one bounce; the thin-wall leak
+                  (experiments/vct_experiment.py).
     E6 stability  every hard case (bright suns and SH windows, extreme exponents and sizes, broken
                   inputs, odd geometry, determinism) with what happened (experiments/stability.py).
 
@@ -389,11 +393,12 @@ def count_steps(s: Settings, quick: bool) -> int:
     from . import ladder, stability
     from . import occlusion as e8
     from . import parameterizations as e9
+    from . import vct_experiment as e10
 
     return (2 * len(s.e1_faces) + len(EXPONENTS) * len(s.e2_faces) * (len(s.e2_biases) + 1) + len(F0S)
             + 4 * len(s.e4_faces) + len(s.e5_spps) + stability.count_parts()
             + ladder.count_steps(ladder.QUICK if quick else ladder.FULL) + e9.count_steps(quick)
-            + e8.count_steps(quick))
+            + e8.count_steps(quick) + e10.count_steps(quick))
 
 
 def reference_plan(s: Settings) -> list[tuple[str, dict]]:
@@ -464,6 +469,12 @@ def _run(out: Path, settings: Settings, quick: bool, cluster=None) -> Path:
 
         sections.append(e8.run(suite, quick, lambda: progress.advance(task)))
         timings["E8"] = time.perf_counter() - t
+        progress.update(task, description="E10")
+        t = time.perf_counter()
+        from . import vct_experiment as e10
+
+        sections.append(e10.run(suite, quick, lambda: progress.advance(task)))
+        timings["E10"] = time.perf_counter() - t
         progress.update(task, description="E6")
         t = time.perf_counter()
         sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))
