@@ -203,6 +203,8 @@ def describe(scene) -> dict[str, Any]:
         if rt.occlusion != "shadow_maps":
             lights.pop("shadow_map_size")
         out["lights"] = lights
+    if "vct" in (rt.occlusion, rt.interreflection):
+        out["vct"] = vars(rt.vct).copy()
     if rt.diffuse == "prt":
         prt = vars(rt.prt).copy()
         if rt.occlusion != "prt":
