@@ -1,0 +1,44 @@
+"""E10's plan and measurements (experiments/vct_experiment.py), small: the grid, the step count the paper
+suite's progress bar uses, the memory comparison, and the thin-wall leak measured (GL)."""
+
+from __future__ import annotations
+
+import pytest
+
+from experiments import vct_experiment as e10
+
+
+def test_configs_are_direct_then_occlusion_and_interreflection_per_setting():
+    cs = e10.configs(e10.QUICK)
+    assert cs[0] == {}
+    assert len(cs) == 1 + 2 * len(e10.QUICK.grid)
+    for a, b in zip(cs[1::2], cs[2::2], strict=True):
+        assert a["realtime.occlusion"] == "vct" and "realtime.interreflection" not in a
+        assert b == {**a, "realtime.interreflection": "vct"}
+    # every configuration is a valid scene
+    import scenes
+
+    for _, spec in e10.SCENES:
+        for c in cs:
+            scenes.load(spec).with_overrides(c)
+
+
+def test_count_steps_matches_the_progress_calls():
+    s = e10.QUICK
+    # per scene: the convergence curve, one row per configuration, the energy split; then the leak
+    assert e10.count_steps(True) == len(e10.SCENES) * (1 + len(e10.configs(s)) + 1) + 1
+
+
+def test_memory_cascades_against_one_texture():
+    one, single_one = e10.memory("builtin:cornell-open", 64, 1)
+    assert one == single_one  # one cascade is the plain 3D texture
+    three, single = e10.memory("builtin:cornell-open", 64, 3)
+    assert three == 3 * one and single > 20 * three  # 256^3 against three 64^3
+
+
+@pytest.mark.gl
+def test_thin_wall_leak_is_measured():
+    (x,) = e10.thin_wall_leak((16,))
+    assert x["outside"] > 0 and 0 <= x["inside"] < x["outside"]
+    assert x["leak"] == pytest.approx(x["inside"] / x["outside"])
+    assert x["visibility_inside"] < x["visibility_outside"]
