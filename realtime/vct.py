@@ -32,7 +32,11 @@ diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy 
 from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
 through the paper's reflectance. The cones start NORMAL_OFFSET_VOXELS along the normal and
 START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
-self-intersection offset. Their cost is inside `draw`; E10 reports `trace` as draw minus the same
+self-intersection offset, with FOOTPRINT_RATIO: a sample's voxel is at most a third of its height
+above the tangent plane. That rule keeps a cone from reading its own surface's voxels at coarse levels
+(without it a plane sees 15% less sky than it should), but it narrows the cones near the surface: an
+occluder on a cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py measures the
+over-occlusion under a sphere). Their cost is inside `draw`; E10 reports `trace` as draw minus the same
 scene's direct-only draw.
 """
 

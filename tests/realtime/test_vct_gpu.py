@@ -163,9 +163,12 @@ def test_plane_alone_sees_the_whole_sky_even_on_a_voxel_boundary(ctx):
 
 
 def test_distant_occluder_is_over_occluded_as_measured(ctx):
-    # a known limit of cone tracing, measured rather than hidden: a sphere (r = 0.5) one diameter above the
-    # plane blocks 11 % of the cosine lobe; the 30-degree cone along the normal sees it through coarse,
-    # trilinearly blurred mips and reads nearly opaque (about 26 % blocked here)
+    # a known limit, measured rather than hidden: a sphere (r = 0.5) one diameter above the plane blocks 11 %
+    # of the cosine lobe. The footprint rule that keeps cones off their own surface (a sample's voxel at most
+    # a third of its height above the tangent plane) narrows the cone along the normal to about a third of
+    # its 60-degree width, so an occluder on its axis reads as filling the whole cone (about 26 % blocked
+    # here: that cone's share of the lobe). A lod bias (finer voxels) does not change it; a looser rule
+    # (2/3 of the height) brings back the plane's self-occlusion.
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"objects.0.translate": [0.0, 1.5, 0.0]})
     env = sh_of(ctx, scene)
     vs = voxels(ctx, scene.objects, 64, env=env)
