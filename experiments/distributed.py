@@ -72,6 +72,7 @@ from distributed.diagnostics.plugin import WorkerPlugin
 
 from scenes import InputError, MissingCapability
 
+from . import outputs
 from .text import one_line
 
 #: how often a task that raises is tried again (worker deaths are counted apart, by the scheduler)
@@ -708,7 +709,7 @@ def _run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict
     columns = [rp.TextColumn("[bold]{task.fields[label]}"), rp.BarColumn(), rp.MofNCompleteColumn(),
                rp.TimeElapsedColumn(), rp.TextColumn("{task.description}", markup=False)]
     last_poll = 0.0
-    with rp.Progress(*columns, transient=False) as progress:
+    with outputs.rich_progress(*columns, transient=False) as progress:
         ref_task = progress.add_task("", total=len(unique), label="tasks")
         row_task = progress.add_task("", total=done + len(todo), completed=done, label="rows")
         while len(ids_written) < len(rows):

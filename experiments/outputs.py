@@ -50,6 +50,19 @@ def write_text(path: Path, text: str) -> None:
 
 
 @contextlib.contextmanager
+def rich_progress(*columns, **kwargs):
+    """A rich Progress for long work (sweeps, the paper suite, PRT precomputation): on stderr, and off
+    (`disable`) when stderr is not a terminal, so CI logs, pipes and a command's stdout never see it."""
+    from rich import progress as rp
+    from rich.console import Console
+
+    try:
+        interactive = sys.stderr.isatty()
+    except (AttributeError, ValueError):
+        interactive = False
+    return rp.Progress(*columns, console=Console(file=sys.stderr), disable=not interactive, **kwargs)
+
+
 def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], None]]:
     """A progress bar of `total` steps on `stream` (default: sys.stderr at the time of the call).
 

@@ -439,7 +439,7 @@ def _run(out: Path, settings: Settings, quick: bool, cluster=None) -> Path:
     timings = {}
     columns = [rp.TextColumn("[bold]paper"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}")]
-    with rp.Progress(*columns) as progress:
+    with outputs.rich_progress(*columns) as progress:
         task = progress.add_task("", total=count_steps(settings, quick))
         suite = Suite(out, settings, lambda: progress.advance(task), cluster)
         if cluster is not None:

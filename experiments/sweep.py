@@ -89,6 +89,8 @@ def _hashable(v: Any) -> Any:
 #: keys that choose what a configuration simulates: they decide which other keys matter
 CHOICE_KEYS = ("realtime.diffuse", "realtime.glossy", "realtime.occlusion", "realtime.interreflection",
                "realtime.parameterization")
+#: table values some choices cannot be made without (interreflected transfer needs bounces >= 1)
+CHOICE_PARAMETERS = ("realtime.prt.bounces",)
 
 
 def chosen_scene(scene, overrides: dict[str, Any], cache: dict | None = None):
@@ -96,7 +98,8 @@ def chosen_scene(scene, overrides: dict[str, Any], cache: dict | None = None):
     decides which other keys matter (the effects follow from the objects, the tables from the choices).
     Other material keys are left out: a type may refuse them (a diffuse material has no exponent)."""
     sub = {k: v for k, v in overrides.items()
-           if k in CHOICE_KEYS or (k.startswith("objects.") and k.endswith((".material.type", ".shape")))}
+           if k in CHOICE_KEYS or k in CHOICE_PARAMETERS
+           or (k.startswith("objects.") and k.endswith((".material.type", ".shape")))}
     if not sub:
         return scene
     ident = json.dumps(sub, sort_keys=True, default=str)
@@ -133,40 +136,96 @@ def relevant(scene, key: str, overrides: dict[str, Any], cache: dict | None = No
     return effect in fx and getattr(cfg.realtime, effect) == value
 
 
-def technique_grid(scene) -> list[tuple[str, list[Any]]]:
-    """`--technique-axes`: for each effect of the scene, every implemented technique and the axes each
-    declares worth sweeping (`Technique.axes`); `configurations` keeps each only where it applies."""
+def technique_choices(scene) -> list[dict[str, str]]:
+    """`--technique-axes`: every valid combination of technique choices for the scene's effects
+    ({"realtime.diffuse": ..., "realtime.occlusion": ...}); "none" counts as a choice for occlusion and
+    interreflection (the paper's), and combinations the scene model refuses (shadow maps without the
+    light array) are left out."""
     from realtime import technique
 
-    out: list[tuple[str, list[Any]]] = []
-    for effect in technique.EFFECT_KEYS:
-        if effect not in scene.effects:
-            continue
+    effects = [e for e in technique.EFFECT_KEYS if e in scene.effects]
+    options = []
+    for effect in effects:
         names = [v for (e, v) in technique.REGISTRY if e == effect]
-        out.append((f"realtime.{effect}", names))
-        for name in names:
-            out += [(k, list(v)) for k, v in technique.technique_class(effect, name).axes.items()]
+        if effect in ("occlusion", "interreflection"):
+            names = [technique.NOTHING, *names]
+        options.append(names)
+    out = []
+    for values in itertools.product(*options):
+        choice = {f"realtime.{e}": v for e, v in zip(effects, values, strict=True)}
+        # judged with the first value of each chosen technique's own axes (interreflected transfer needs
+        # its bounces >= 1, which the table's default 0 would refuse)
+        sample = {k: v[0] for k, v in technique_grid(choice)}
+        if _valid(scene, {k: (list(v) if isinstance(v, tuple) else v) for k, v in sample.items()}):
+            out.append(choice)
+    return out
+
+
+def technique_grid(choice: dict[str, str]) -> list[tuple[str, list[Any]]]:
+    """The axes the chosen techniques declare worth sweeping (`Technique.axes`), with the choice itself."""
+    from realtime import technique
+
+    out: list[tuple[str, list[Any]]] = [(k, [v]) for k, v in choice.items()]
+    for key, value in choice.items():
+        effect = key.split(".")[1]
+        if value != technique.NOTHING:
+            out += [(k, list(v)) for k, v in technique.technique_class(effect, value).axes.items()]
     return out
 
 
 def configurations(scene, axes: Axes) -> list[dict[str, Any]]:
     """Override dicts for `scene.with_overrides`: the product of the axes, each reduced to the keys
-    that matter to it, without duplicates, in order."""
+    that matter to it, without duplicates, in order. With `technique_axes`, the product is taken per
+    combination of technique choices, over the axes of the chosen techniques only."""
     grid = axes.grid()
-    if axes.technique_axes:
-        given = {k for k, _ in grid}
-        grid += [(k, v) for k, v in technique_grid(scene) if k not in given]
+    if not axes.technique_axes:
+        return _configurations(scene, grid, [], set())
+    given = {k for k, _ in grid}
+    out: list[dict[str, Any]] = []
+    seen: set[str] = set()
+    for choice in technique_choices(scene):
+        tgrid = grid + [(k, v) for k, v in technique_grid(choice) if k not in given]
+        _configurations(scene, tgrid, out, seen, check=True)
+    return out
+
+
+def _configurations(scene, grid, out: list, seen: set, check: bool = False) -> list[dict[str, Any]]:
     keys = [k for k, _ in grid]
-    out, seen, cache = [], set(), {}
+    cache: dict = {}
     for values in itertools.product(*(v for _, v in grid)):
         full = dict(zip(keys, values, strict=True))
+        if check and not _valid_choices(scene, full, cache):
+            continue  # a choice from the command line that this combination refuses
         reduced = {k: (list(v) if isinstance(v, tuple) else v) for k, v in full.items()
                    if relevant(scene, k, full, cache)}
         ident = json.dumps(reduced, sort_keys=True)
-        if ident not in seen:
-            seen.add(ident)
-            out.append(reduced)
+        if ident in seen:
+            continue
+        seen.add(ident)
+        if check and not _valid(scene, reduced):
+            continue  # a generated table value the chosen techniques refuse
+        out.append(reduced)
     return out
+
+
+def _valid_choices(scene, overrides: dict, cache: dict) -> bool:
+    from scenes import SceneError
+
+    try:
+        chosen_scene(scene, overrides, cache)
+    except SceneError:
+        return False
+    return True
+
+
+def _valid(scene, overrides: dict) -> bool:
+    from scenes import SceneError
+
+    try:
+        scene.with_overrides(overrides)
+    except SceneError:
+        return False
+    return True
 
 
 @lru_cache(maxsize=64)
@@ -206,6 +265,12 @@ def scene_content(scene, reference_only: bool = False) -> dict:
                 h.update(np.ascontiguousarray(arr).tobytes())
             od["shape"] = {"mesh_sha256": h.hexdigest()}
     if reference_only:
+        if scene.reference.lighting == "light_array":  # the reference renders the real-time light array
+            from scenes.light_array import LIGHT_ARRAY_VERSION
+
+            lights = scene.realtime.lights
+            d["reference"]["light_array"] = {"placement": lights.placement, "count": lights.count,
+                                             "version": LIGHT_ARRAY_VERSION}
         for key in ("realtime", "tonemap", "name"):
             d.pop(key, None)
     return d
@@ -389,9 +454,11 @@ def drop_failed(store, rows: list[ResultRow]) -> list[ResultRow]:
 def _run_rows(out_dir: Path, store, todo: list[tuple[str, dict]], done: int) -> None:
     from rich import progress as rp
 
+    from . import outputs
+
     columns = [rp.TextColumn("[bold]sweep"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
-    with rp.Progress(*columns, transient=False) as progress:
+    with outputs.rich_progress(*columns, transient=False) as progress:
         task = progress.add_task("", total=done + len(todo), completed=done)
         for spec, ov in todo:
             progress.update(task, description=one_line(f"{spec} {short(ov)}", 120))

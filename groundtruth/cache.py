@@ -62,7 +62,10 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
         "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
     }
     if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
-        desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count]
+        from scenes.light_array import LIGHT_ARRAY_VERSION
+
+        desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count,
+                            LIGHT_ARRAY_VERSION]
     h.update(json.dumps(desc, sort_keys=True).encode())
     for obj in scene.objects:
         for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):

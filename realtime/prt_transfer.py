@@ -68,6 +68,7 @@ import io
 import json
 import math
 import os
+import sys
 import tempfile
 import time
 import warnings
@@ -204,7 +205,8 @@ def _progress(total: int, enabled: bool):
 
     columns = [rp.TextColumn("[bold]prt"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
-    return rp.Progress(*columns, console=Console(stderr=True))
+    # on stderr, and only on a terminal: CI logs and pipes never see the bar
+    return rp.Progress(*columns, console=Console(stderr=True), disable=not sys.stderr.isatty())
 
 
 def _trace(objs: list[_Checked], order: int, rays: int, bounces: int, seed: int, progress: bool,

@@ -36,6 +36,9 @@ import numpy as np
 from .directions import equirect_directions, equirect_solid_angles, luminance, normalize
 
 PLACEMENTS = ("geodesic", "median_cut")
+#: part of the cache key of references rendered with the array (reference.lighting = "light_array"):
+#: bump it when a placement's directions or regions change
+LIGHT_ARRAY_VERSION = 1
 #: subdivisions of each polyhedron offered (counts up to 10242 lights)
 MAX_SUBDIVISIONS = {"tetrahedron": 5, "octahedron": 5, "icosahedron": 5}
 MAX_MEDIAN_CUT = 4096

@@ -146,3 +146,17 @@ def test_axis_values_may_hold_commas_inside_brackets_and_quotes(text, want):
     from experiments.inputs import parse_axis
 
     assert parse_axis(text) == want
+
+
+def test_technique_axes_on_a_scene_with_occlusion_make_only_valid_configurations():
+    """Occlusion and interreflection bring choices that need each other (shadow maps need the light array,
+    interreflected transfer needs bounces): the generated plan holds only configurations the scene model
+    accepts (sweep.plan validates every one) and still holds each kind."""
+    got = sweep.plan(["builtin:sphere-on-plane"], sweep.Axes(face_sizes=None, lod_biases=None, technique_axes=True))
+    kinds = {(ov.get("realtime.diffuse"), ov.get("realtime.occlusion"), ov.get("realtime.interreflection"))
+             for _, ov in got}
+    assert {("lights", "shadow_maps", "none"), ("prt", "prt", "prt"), ("prt", "prt", "none"), ("sh", "none", "none"),
+            ("sh", "vct", "vct")} <= kinds
+    assert ("sh", "shadow_maps", "none") not in kinds and ("sh", "prt", "none") not in kinds
+    bounces = {ov.get("realtime.prt.bounces") for _, ov in got if ov.get("realtime.interreflection") == "prt"}
+    assert bounces == {1, 2}
