@@ -142,16 +142,18 @@ def precompute_s(r: ResultRow) -> float | None:
     return None if ms is None else ms / 1e3
 
 
-def discretisation(scene, placement: str, count: int) -> dict:
+def discretisation(scene, placement: str, count: int, cluster=None) -> dict:
     """The array against the environment, both path-traced: unbiased PSNR with both references' own noise
-    (half the mean squared difference of their two seeds) removed from the MSE."""
+    (half the mean squared difference of their two seeds) removed from the MSE. With a Dask `cluster`
+    (experiments/distributed.py) the four references are its tasks."""
     from groundtruth import reference
 
     from . import metrics
 
-    env_a, env_b = reference.render_pair(scene)
+    pair = reference.render_pair if cluster is None else cluster.references
+    env_a, env_b = pair(scene)
     array_scene = scene.with_overrides({**lights_ov(scene, placement, count), "reference.lighting": "light_array"})
-    arr_a, arr_b = reference.render_pair(array_scene)
+    arr_a, arr_b = pair(array_scene)
     mask = env_a.mask & env_b.mask & arr_a.mask & arr_b.mask
     d = [metrics.display(scene, x.rgb)[mask] for x in (env_a, env_b, arr_a, arr_b)]
     mse = float(np.mean((d[2] - d[0]) ** 2))
@@ -181,7 +183,7 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
                 for c in configs(scene, s)]
         per_scene[name] = (rows, curve)
         for placement, count in s.split_arrays:
-            d = discretisation(scene, placement, count)
+            d = discretisation(scene, placement, count, suite.cluster)
             progress()
             size = max(z for z in s.shadow_sizes if fits(count, z))
             exact = suite.row(spec, {**timing, **lights_ov(scene, placement, count, size),

@@ -11,6 +11,9 @@ mip level (sh_project_n.comp, the same projection `diffuse = "sh"` uses, unwindo
 dots them with each vertex's T (shade.vert) and interpolates E across the triangle. All the cost is in
 the precomputation; per frame it is a (order + 1)^2 dot product per vertex.
 
+The transfer is the front side's: scenes refuse PRT on two-sided materials (scenes/scene.py), and bounces
+gather only light leaving front faces, with the object's kd as its albedo (a blend's Fresnel weight
+(1 - F) on its diffuse light and its glossy bounces are not in the transfer: "glossy interreflection").
 Only the diffuse lobe is transferred: a blend material's glossy term is the paper's (or the prefiltered)
 environment lookup, unshadowed, and `unsimulated_effects` says "glossy occlusion".
 """

@@ -635,6 +635,12 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
 
     realtime = _realtime(tree.get("realtime", {}), where, section)
     reference = Reference(**section("reference", tree.get("reference", {})))
+    two_sided = [i for i, o in enumerate(objects) if o.material.two_sided]
+    if realtime.diffuse == "prt" and two_sided:
+        i = two_sided[0]
+        raise SceneError(f"{where}: realtime.diffuse = 'prt' with objects[{i}].material.two_sided = true: precomputed "
+                         "transfer is computed for the front side only (its back would be shaded with the front's "
+                         "transfer); use one-sided materials or another diffuse technique")
     if reference.lighting == "light_array" and "lights" not in (realtime.diffuse, realtime.glossy):
         raise SceneError(f"{where}: reference.lighting = 'light_array' with realtime.diffuse = {realtime.diffuse!r}: "
                          'the reference renders the real-time light array; set realtime.diffuse or realtime.glossy '

@@ -80,6 +80,8 @@ def test_not_implemented_values_are_refused_not_ignored(key, value):
     ({"realtime.diffuse": "prt", "realtime.prt.rays": 64}, ["realtime.prt.rays", "realtime.occlusion"]),
     ({"realtime.diffuse": "prt", "realtime.prt.order": 5}, ["realtime.prt.order"]),
     ({"reference.lighting": "light_array"}, ["reference.lighting", "realtime.diffuse"]),
+    ({"realtime.diffuse": "prt", "objects.0.material.two_sided": True}, ["realtime.diffuse", "objects[0]",
+                                                                          "two_sided", "front side"]),
 ])
 def test_unused_tables_and_nonsense_combinations_name_both_keys(overrides, names):
     with pytest.raises(SceneError) as err:

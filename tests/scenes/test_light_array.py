@@ -6,8 +6,9 @@
 - A constant environment of radiance 1 under the geodesic array gives a diffuse surface E = pi within
   the discretisation error of the cosine sum: every light stands for its cell's solid angle at one
   direction; the error shrinks about as 1/N (the cell's area: the clamped cosine is linear inside a
-  cell that does not cross the horizon, so only its first moment and the horizon cells err):
-  under 4% at 42, 1.1% at 162 and 1% (the issue's bound; 0.25% measured) at 642.
+  cell that does not cross the horizon, so only its first moment and the horizon cells err). The
+  largest error over 20,000 random normals is 4.1% at 42, 1.03% at 162 and 0.25% at 642 lights; the
+  bounds, with margin, are 5%, 1.5% and the issue's 1%.
 - Median cut weighs texels by solid angle (sin theta): on a constant map every region holds the same
   solid angle; without sin theta the cuts would crowd the poles.
 """
@@ -80,12 +81,12 @@ def test_median_cut_needs_a_power_of_two(count):
         light_array.median_cut(random_map(0), count)
 
 
-@pytest.mark.parametrize("count,bound", [(42, 0.04), (162, 0.011), (642, 0.01)])
+@pytest.mark.parametrize("count,bound", [(42, 0.05), (162, 0.015), (642, 0.01)])
 def test_constant_environment_lights_a_diffuse_surface_to_pi(count, bound):
     env = np.ones((128, 256, 3), np.float32)
     array = light_array.geodesic(env, count)
     rng = np.random.default_rng(7)
-    n = rng.normal(size=(4000, 3))
+    n = rng.normal(size=(20000, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     e = light_array.diffuse_irradiance(array, n)
     assert np.abs(e / np.pi - 1.0).max() < bound
