@@ -49,7 +49,6 @@ def write_text(path: Path, text: str) -> None:
     write_bytes(path, text.encode("utf-8"))
 
 
-@contextlib.contextmanager
 def rich_progress(*columns, **kwargs):
     """A rich Progress for long work (sweeps, the paper suite, PRT precomputation): on stderr, and off
     (`disable`) when stderr is not a terminal, so CI logs, pipes and a command's stdout never see it."""
@@ -63,6 +62,7 @@ def rich_progress(*columns, **kwargs):
     return rp.Progress(*columns, console=Console(file=sys.stderr), disable=not interactive, **kwargs)
 
 
+@contextlib.contextmanager
 def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], None]]:
     """A progress bar of `total` steps on `stream` (default: sys.stderr at the time of the call).
 
