@@ -80,7 +80,8 @@ def test_other_endings_keep_their_codes(capsys, exc, code, words):
 def test_a_crash_inside_the_gate_is_not_a_failed_gate(tmp_path, capsys, monkeypatch):
     from experiments import comparison
 
-    monkeypatch.setattr(comparison, "run", raising(RuntimeError("the GL driver crashed")))
+    # the gate measures in announced steps (gate.measure), each of which ends in comparison.compare
+    monkeypatch.setattr(comparison, "compare", raising(RuntimeError("the GL driver crashed")))
     code = cli.main(["gate", str(tiny_scene(tmp_path)), "--min-psnr", "10"])
     assert code == 4 and "internal error" in capsys.readouterr().err
 
@@ -90,7 +91,7 @@ def test_a_crash_inside_the_gate_is_not_a_failed_gate(tmp_path, capsys, monkeypa
 def test_thresholds_must_be_finite_numbers(tmp_path, capsys, monkeypatch, flag, value):
     from experiments import comparison
 
-    monkeypatch.setattr(comparison, "run", raising(AssertionError("compared before the thresholds were checked")))
+    monkeypatch.setattr(comparison, "compare", raising(AssertionError("compared before the thresholds were checked")))
     code = cli.main(["gate", str(tiny_scene(tmp_path)), f"{flag}={value}"])
     err = capsys.readouterr().err.strip().splitlines()
     assert code == 2 and len(err) == 1 and flag in err[0], err

@@ -38,9 +38,10 @@ def no_render(monkeypatch):
         raise AssertionError("rendered before the output path was checked")
 
     monkeypatch.setattr(render_cmd, "render_with", refuse)
-    from experiments import comparison
+    from experiments import comparison, gate
 
     monkeypatch.setattr(comparison, "run", refuse)
+    monkeypatch.setattr(gate, "measure", refuse)  # compare and gate measure through it
 
 
 def leftovers(folder: Path) -> list[str]:
