@@ -223,7 +223,8 @@ def test_driver_killed_its_workers_exit_and_the_rerun_resumes(tmp_path, cache):
     try:
         deadline = time.time() + 120
         while time.time() < deadline and proc.poll() is None:
-            workers |= {p for p in _children(proc.pid) if b"dask" in _cmdline(p)}
+            # a worker's title names dask when setproctitle is installed, otherwise it is a spawned child
+            workers |= {p for p in _children(proc.pid) if b"dask" in _cmdline(p) or b"spawn_main" in _cmdline(p)}
             if results.exists() and len(results.read_text().splitlines()) >= 1:
                 break
             time.sleep(0.05)
