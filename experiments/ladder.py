@@ -232,21 +232,8 @@ def plot(per_scene: dict, path, plots) -> None:
             p = np.array([r.psnr_unbiased for r in pts])
             front = plots.pareto_front(t, p)
             ax.plot(t[front], p[front], color="k", lw=1.0, drawstyle="steps-post", label="Pareto front")
-        ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
-        if ladder:
-            from .convergence import time_model
-
-            model = time_model(curve)
-            secs = [(model.per_spp_s * spp if model else sec) for spp, sec, _ in ladder]
-            ax.plot([1e3 * x for x in secs], [d for _, _, d in ladder], "--", color="grey", marker="x",
-                    label="path tracer (spp ladder)")
-        ax.set_xscale("log")
+        plots.finish_accuracy_time_axes(ax, curve, label)
         ax.set_xlim(0.5, 2e5)
-        ax.set_title(label)
-        ax.set_xlabel("time per image (ms, log)")
-        ax.set_ylabel("unbiased PSNR (dB)")
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=6)
     plots.save(fig, path)
 
 

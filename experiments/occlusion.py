@@ -308,7 +308,6 @@ def seed_claims(per_scene: dict, splits: list[list[str]]) -> list[str]:
 
 def plot(per_scene: dict, path) -> None:
     from . import plots
-    from .convergence import time_model
 
     plt = plots.pyplot()
     n = len(per_scene)
@@ -320,18 +319,7 @@ def plot(per_scene: dict, path) -> None:
             sel = [r for r in pts if family(r) == fam]
             ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=18, marker=markers[k % 12],
                        label=fam)
-        ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
-        if ladder:
-            model = time_model(curve)
-            secs = [(model.per_spp_s * spp if model else sec) for spp, sec, _ in ladder]
-            ax.plot([1e3 * x for x in secs], [d for _, _, d in ladder], "--", color="grey", marker="x",
-                    label="path tracer (spp ladder)")
-        ax.set_xscale("log")
-        ax.set_title(name)
-        ax.set_xlabel("time per image (ms, log)")
-        ax.set_ylabel("unbiased PSNR (dB)")
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=5.5)
+        plots.finish_accuracy_time_axes(ax, curve, name, legend_size=5.5)
     plots.save(fig, path)
 
 

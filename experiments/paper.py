@@ -451,30 +451,15 @@ def _run(out: Path, settings: Settings, quick: bool, cluster=None) -> Path:
             t = time.perf_counter()
             sections.append(getattr(suite, name)())
             timings[name.upper()] = time.perf_counter() - t
-        progress.update(task, description="E7")
-        t = time.perf_counter()
-        from . import ladder
-
-        sections.append(ladder.run(suite, quick, lambda: progress.advance(task)))
-        timings["E7"] = time.perf_counter() - t
-        progress.update(task, description="E9")
-        t = time.perf_counter()
+        from . import ladder, occlusion, vct_experiment
         from . import parameterizations as e9
 
-        sections.append(e9.run(suite, quick, lambda: progress.advance(task)))
-        timings["E9"] = time.perf_counter() - t
-        progress.update(task, description="E8")
-        t = time.perf_counter()
-        from . import occlusion as e8
-
-        sections.append(e8.run(suite, quick, lambda: progress.advance(task)))
-        timings["E8"] = time.perf_counter() - t
-        progress.update(task, description="E10")
-        t = time.perf_counter()
-        from . import vct_experiment as e10
-
-        sections.append(e10.run(suite, quick, lambda: progress.advance(task)))
-        timings["E10"] = time.perf_counter() - t
+        # the experiments in their own modules: run(suite, quick, progress) -> Section
+        for name, module in (("E7", ladder), ("E9", e9), ("E8", occlusion), ("E10", vct_experiment)):
+            progress.update(task, description=name)
+            t = time.perf_counter()
+            sections.append(module.run(suite, quick, lambda: progress.advance(task)))
+            timings[name] = time.perf_counter() - t
         progress.update(task, description="E6")
         t = time.perf_counter()
         sections.append(e6_section(64 if quick else 256, lambda: progress.advance(task)))

@@ -48,6 +48,26 @@ def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
     return np.asarray(front, dtype=int)
 
 
+def finish_accuracy_time_axes(ax, curve, title: str, legend_size: float = 6) -> None:
+    """The path tracer's spp ladder (experiments.convergence.curve; seconds from its per-spp time model)
+    on an unbiased-PSNR-against-ms axes, and the axes' common dress: log time, labels, grid, legend.
+    E7, E8 and E10 draw their techniques first and finish with this."""
+    from .convergence import time_model
+
+    ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
+    if ladder:
+        model = time_model(curve)
+        secs = [(model.per_spp_s * spp if model else sec) for spp, sec, _ in ladder]
+        ax.plot([1e3 * x for x in secs], [d for _, _, d in ladder], "--", color="grey", marker="x",
+                label="path tracer (spp ladder)")
+    ax.set_xscale("log")
+    ax.set_title(title)
+    ax.set_xlabel("time per image (ms, log)")
+    ax.set_ylabel("unbiased PSNR (dB)")
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=legend_size)
+
+
 def accuracy_vs_bias(rows: list[ResultRow], path: Path) -> bool:
     """PSNR and SSIM against LOD bias, one line per face size, one column per glossy scene."""
     glossy = [r for r in rows if "glossy" in r.effects and r.psnr is not None and r.techniques.get("glossy") == "box"]

@@ -282,7 +282,6 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
 
 def plot(per_scene: dict, path) -> None:
     from . import plots
-    from .convergence import time_model
 
     plt = plots.pyplot()
     n = len(per_scene)
@@ -295,18 +294,7 @@ def plot(per_scene: dict, path) -> None:
                 st = setting(r)
                 if st:
                     ax.annotate(f"{st[0]}/{st[1]}/{st[2]}", (frame_ms(r), r.psnr_unbiased), fontsize=5)
-        ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
-        if ladder:  # seconds from the curve's time model (per-spp cost), as E8 draws it
-            model = time_model(curve)
-            secs = [(model.per_spp_s * spp if model else sec) for spp, sec, _ in ladder]
-            ax.plot([1e3 * x for x in secs], [d for _, _, d in ladder], "--", color="grey", marker="x",
-                    label="path tracer (spp ladder)")
-        ax.set_xscale("log")
-        ax.set_title(name)
-        ax.set_xlabel("time per image (ms, log)")
-        ax.set_ylabel("unbiased PSNR (dB)")
-        ax.grid(alpha=0.3, which="both")
-        ax.legend(fontsize=6)
+        plots.finish_accuracy_time_axes(ax, curve, name)
     plots.save(fig, path)
 
 

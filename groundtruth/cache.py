@@ -110,25 +110,34 @@ def store(key: str, rgb: np.ndarray, mask: np.ndarray, meta: dict) -> bool:
     """Write an entry atomically; False (with a warning) when the folder cannot be written."""
     folder = cache_dir()
     meta_json = json.dumps(meta, sort_keys=True)
-    buf = io.BytesIO()
-    np.savez(buf, rgb=rgb, mask=mask, meta=np.array(meta_json), checksum=np.array(_checksum(rgb, mask, meta_json)))
-    tmp = None
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=folder)
+        write_npz(folder, key, rgb=rgb, mask=mask, meta=np.array(meta_json),
+                  checksum=np.array(_checksum(rgb, mask, meta_json)))
+        return True
+    except OSError as exc:
+        warnings.warn(f"reference cache {folder} cannot be written ({exc.strerror or exc}); "
+                      "the render is returned but not cached", CacheWarning, stacklevel=2)
+        return False
+
+
+def write_npz(folder: Path, key: str, **arrays: np.ndarray) -> None:
+    """`folder/key.npz` written atomically (a temporary file in the same folder, fsync, rename): readers
+    see the old entry or the whole new one, never part of it. Raises OSError (the temporary file is
+    removed). Shared by the reference cache and the PRT cache (realtime/prt_transfer.py)."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=folder)
+    try:
         with os.fdopen(fd, "wb") as f:
             f.write(buf.getvalue())
             f.flush()
             os.fsync(f.fileno())
         os.replace(tmp, folder / f"{key}.npz")
-        return True
-    except OSError as exc:
-        if tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-        warnings.warn(f"reference cache {folder} cannot be written ({exc.strerror or exc}); "
-                      "the render is returned but not cached", CacheWarning, stacklevel=2)
-        return False
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
 
 
 @contextlib.contextmanager

@@ -64,12 +64,9 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
-import io
 import json
 import math
-import os
 import sys
-import tempfile
 import time
 import warnings
 from collections.abc import Sequence
@@ -374,26 +371,14 @@ def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] 
 
 
 def _store(folder, key: str, arrays: list[np.ndarray], meta: dict) -> bool:
-    from groundtruth.cache import CacheWarning
+    from groundtruth.cache import CacheWarning, write_npz
 
     meta_json = json.dumps(meta, sort_keys=True)
-    buf = io.BytesIO()
-    np.savez(buf, meta=np.array(meta_json), checksum=np.array(_entry_checksum(arrays, meta_json)),
-             **{f"t{i}": a for i, a in enumerate(arrays)})
-    tmp = None
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=folder)
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, folder / f"{key}.npz")
+        write_npz(folder, key, meta=np.array(meta_json), checksum=np.array(_entry_checksum(arrays, meta_json)),
+                  **{f"t{i}": a for i, a in enumerate(arrays)})
         return True
     except OSError as exc:
-        if tmp is not None:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
         warnings.warn(f"PRT cache {folder} cannot be written ({exc.strerror or exc}); the transfer is returned "
                       "but not cached", CacheWarning, stacklevel=3)
         return False
