@@ -37,7 +37,7 @@ clean:
 
 # Mutation testing of the core numerical modules (mutmut, configured in pyproject.toml [tool.mutmut]); slow,
 # not in CI. Runs in a scratch copy of the working tree under build/ (git-ignored), so the tree itself is never
-# mutated. `make mutation MUTMUT_ARGS='realtime.levels*'` runs one module's mutants; the summary per module is
+# mutated. `make mutation MUTMUT_ARGS='realtime.engine.levels*'` runs one module's mutants; the summary per module is
 # in build/mutation/mutation-summary.txt.
 MUTATION_DIR := build/mutation
 MUTMUT_ARGS ?=

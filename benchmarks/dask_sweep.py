@@ -6,7 +6,7 @@ The sweep: builtin:sphere-blend with 4 Phong exponents x 4 Fresnel f0 = 16 confi
 its own reference (32 Mitsuba renders with the noise-floor seed), face size 32, LOD bias 0, 2 timed
 frames. For each spp:
 
-1. `sweep` (what a user waits for): `experiments.sweep.run` serial, then with `workers` (cluster start
+1. `sweep` (what a user waits for): `experiments.runs.sweep.run` serial, then with `workers` (cluster start
    included), each into a fresh reference cache; wall seconds, and for the Dask run its phases
    (`references`: submit to the last reference task; `rows`: the whole run, the driver's real-time
    part included) and the cluster's own start time.
@@ -45,13 +45,13 @@ def uptime() -> str:
 
 
 def axes():
-    from experiments import sweep
+    from experiments.runs import sweep
 
     return sweep.Axes(face_sizes=[32], lod_biases=[0.0], exponents=EXPONENTS, f0s=F0S)
 
 
 def sweep_serial(size: int, spp: int, tmp: Path) -> dict:
-    from experiments import sweep
+    from experiments.runs import sweep
 
     os.environ["IBLCHECK_CACHE"] = str(tmp / "cache-serial")
     t0 = time.perf_counter()
@@ -61,8 +61,8 @@ def sweep_serial(size: int, spp: int, tmp: Path) -> dict:
 
 
 def sweep_dask(size: int, spp: int, workers: int, tmp: Path) -> dict:
-    from experiments import sweep
-    from experiments.distributed import Cluster
+    from experiments.runs import sweep
+    from experiments.runs.dask_cluster import Cluster
 
     os.environ["IBLCHECK_CACHE"] = str(tmp / "cache-dask")
     t0 = time.perf_counter()
@@ -83,8 +83,8 @@ def references_only(size: int, spp: int, workers: int, tmp: Path) -> dict:
     from distributed import wait
 
     import scenes
-    from experiments.distributed import Cluster
-    from groundtruth.reference import render, second_seed
+    from experiments.runs.dask_cluster import Cluster
+    from groundtruth.pathtracer.reference import render, second_seed
 
     scenes_ = [scenes.load(SPEC).with_overrides({**sets(size, spp), "objects.*.material.exponent": n,
                                                  "objects.*.material.f0": f0}) for n in EXPONENTS for f0 in F0S]
@@ -113,7 +113,7 @@ def _noop(i: int) -> int:
 
 
 def overhead_per_task(workers: int, n: int = 1000) -> dict:
-    from experiments.distributed import Cluster
+    from experiments.runs.dask_cluster import Cluster
 
     with Cluster(workers=workers, echo=None) as c:
         c.client.gather(c.client.map(_noop, range(20), key=[f"warm-{i}" for i in range(20)]))
@@ -134,7 +134,7 @@ def main() -> None:
     args = ap.parse_args()
 
     import scenes
-    from groundtruth.reference import render
+    from groundtruth.pathtracer.reference import render
 
     render(scenes.load(SPEC).with_overrides(sets(args.size, 16)), use_cache=False)  # warm Dr.Jit's kernel cache
     out = {"uptime_before": uptime(), "cores": os.cpu_count(), "workers": args.workers, "size": args.size, "runs": []}

@@ -3,8 +3,9 @@ of wall time around the work with ctx.finish(), warm-up excluded).
 
     .venv/bin/python benchmarks/filter_kernels.py [--runs 20] [--json out.json]
 
-- irradiance map (realtime/irradiance_map.py): output face 16/32/64 from source face 16/32;
-- Phong prefilter (realtime/prefilter.py): base 256, levels from face 64 down (first_level 2),
+- irradiance map (realtime/techniques/irradiance_map/irradiance_convolution.py): output face 16/32/64 from source
+face 16/32;
+- Phong prefilter (realtime/techniques/prefiltered/prefilter.py): base 256, levels from face 64 down (first_level 2),
   exponents 10/100/1000, 16 ... 1024 samples, FIS on (bias 0).
 Also printed: CPU time of the process (llvmpipe's threads included), which is less disturbed than
 wall time when other jobs share the cores.
@@ -18,11 +19,11 @@ import time
 
 import numpy as np
 
-from realtime.context import get_context, renderer_name
-from realtime.gpu import EnvironmentFilter
-from realtime.irradiance_map import IrradianceConvolver
-from realtime.prefilter import PhongPrefilter
-from scenes import environments
+from realtime.engine.context import get_context, renderer_name
+from realtime.engine.gpu import EnvironmentFilter
+from realtime.techniques.irradiance_map.irradiance_convolution import IrradianceConvolver
+from realtime.techniques.prefiltered.prefilter import PhongPrefilter
+from scenes.environment import environments
 
 
 def measure(ctx, work, runs: int, warmup: int = 3) -> dict[str, float]:

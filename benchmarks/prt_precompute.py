@@ -1,4 +1,5 @@
-"""PRT precomputation cost (realtime/prt_transfer.py): a ~20k-vertex torus at 256 rays, medians of repeats.
+"""PRT precomputation cost (realtime/techniques/prt/prt_transfer.py): a ~20k-vertex torus at 256 rays, medians of
+repeats.
 
     .venv/bin/python benchmarks/prt_precompute.py [--repeats 3]
 
@@ -14,8 +15,8 @@ import time
 
 import numpy as np
 
-from realtime.prt_transfer import TransferObject, transfer
-from scenes import meshes
+from realtime.techniques.prt.prt_transfer import TransferObject, transfer
+from scenes.geometry import meshes
 
 
 def main() -> None:

@@ -16,9 +16,9 @@ import numpy as np
 
 import realtime
 import scenes
-from realtime.context import get_context, renderer_name
-from realtime.gpu import EnvironmentFilter
-from realtime.timing import timed
+from realtime.engine.context import get_context, renderer_name
+from realtime.engine.gpu import EnvironmentFilter
+from realtime.engine.timing import timed
 
 
 def median_ms(ctx, work, frames: int, warmup: int = 5) -> float:

@@ -3,6 +3,6 @@
     experiments.compare(test, reference, scene) -> dict     (design.md section 6)
 """
 
-from .comparison import compare
+from experiments.measure.comparison import compare
 
 __all__ = ["compare"]

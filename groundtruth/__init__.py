@@ -2,12 +2,12 @@
 
     groundtruth.render(scene, spp=None, seed=None) -> Render      # path-traced, cached
     groundtruth.render_pair(scene)                  -> (Render, Render)  # for the noise floor
-    groundtruth.quadrature.render(scene)            -> Render      # exact, unoccluded
+    groundtruth.exact.quadrature.render(scene)            -> Render      # exact, unoccluded
 
 Mitsuba is imported lazily (variant.py chooses the variant and the libLLVM first).
 """
 
-from . import quadrature
-from .reference import render, render_pair
+from groundtruth.exact import quadrature
+from groundtruth.pathtracer.reference import render, render_pair
 
 __all__ = ["quadrature", "render", "render_pair"]

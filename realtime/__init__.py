@@ -4,13 +4,14 @@ section 3) and the techniques it is measured against (design.md section 9).
     realtime.render(scene) -> Render
 
 The default techniques are the paper's: cube map with a 2x2 box mip chain, SH9 irradiance
-`n^T M n` (`realtime/diffuse_sh.py`) and the glossy lookup at a LOD (`realtime/glossy_box.py`).
-`realtime/technique.py` is the interface and registry, `realtime/frame.py` composes a frame and
-times it, `realtime/gpu.py` holds the shared environment filter and the shading pass.
+`n^T M n` (`realtime/techniques/sh/diffuse_sh.py`) and the glossy lookup at a LOD
+(`realtime/techniques/box/glossy_box.py`).
+`realtime/engine/technique.py` is the interface and registry, `realtime/engine/frame.py` composes a frame and
+times it, `realtime/engine/gpu.py` holds the shared environment filter and the shading pass.
 """
 
 from __future__ import annotations
 
-from .frame import object_distance, render
+from realtime.engine.frame import object_distance, render
 
 __all__ = ["object_distance", "render"]

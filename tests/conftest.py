@@ -13,7 +13,7 @@ PROBE_DIR = Path(__file__).resolve().parents[1] / "scenes" / "data" / "envs"
 @pytest.fixture(scope="session")
 def mi():
     """Mitsuba with iblcheck's variant choice (llvm_ad_rgb here, never LLVM 15)."""
-    from groundtruth.variant import mitsuba
+    from groundtruth.pathtracer.variant import mitsuba
 
     return mitsuba()
 

@@ -40,7 +40,7 @@ def unit_sphere_hits(camera, margin_px: float = 2.5):
 def box_chain(env, base: int) -> list:
     """The paper's mip chain built here in numpy: level 0 the Mitsuba-convention lookup of every texel
     direction of a base x base cube (design.md section 2), then 2 x 2 box means down to 1 x 1; float64."""
-    from scenes import cubemap, envmap
+    from scenes.environment import cubemap, envmap
 
     levels = [envmap.lookup(env, cubemap.texel_directions(base)).astype(np.float64)]
     while levels[-1].shape[1] > 1:
@@ -66,7 +66,7 @@ def bilinear(level: np.ndarray, face: np.ndarray, s: np.ndarray, t: np.ndarray) 
 def trilinear(chain: list[np.ndarray], d: np.ndarray, lod: float) -> tuple[np.ndarray, np.ndarray]:
     """The chain read at `lod` along directions d (N, 3): bilinear in levels floor(lod) and floor(lod) + 1,
     linear between them; `inside`: both footprints lie on one face (no seamless blending across edges)."""
-    from scenes import cubemap
+    from scenes.environment import cubemap
 
     face, s, t = cubemap.direction_to_face(d)
     lo = int(np.floor(lod))

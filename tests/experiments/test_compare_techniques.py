@@ -7,7 +7,7 @@ import json
 
 import pytest
 
-from experiments import cli
+from experiments.cli import main as cli
 
 pytestmark = [pytest.mark.gl, pytest.mark.mitsuba]
 
@@ -40,7 +40,7 @@ def test_render_json_line_names_the_techniques(capsys, tmp_path):
 
 
 def test_not_implemented_technique_exits_2(capsys, monkeypatch):
-    import scenes.scene as scene_module  # every value is built today: mark one as the next unbuilt technique
+    import scenes.model.scene as scene_module  # every value is built today: mark one as the next unbuilt technique
 
     monkeypatch.setattr(scene_module, "NOT_IMPLEMENTED", frozenset({("glossy", "lights")}))
     assert cli.main(["compare", "builtin:sphere-blend", "--set", "realtime.glossy=lights", *TINY]) == 2

@@ -8,9 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from experiments import convergence
-from experiments.convergence import Rung
-from scenes.render import Render
+from experiments.measure import convergence
+from experiments.measure.convergence import Rung
+from scenes.model.render import Render
 
 SPPS = (4, 16, 64, 256, 1024, 4096)
 A_DB, B_S = 20.0, 0.003  # dB = A + 10 log10(spp), seconds = B * spp
@@ -87,7 +87,7 @@ def test_ladder_is_capped_at_the_reference_spp():
 def test_curve_renders_two_seeds_per_rung_and_reads_the_render_time(monkeypatch):
     """The plumbing, with a fake reference: truth + noise of variance 1 / spp in linear radiance."""
     import scenes
-    from groundtruth import reference
+    from groundtruth.pathtracer import reference
 
     scene = scenes.load("builtin:sphere-diffuse").with_overrides({"camera.width": 48, "camera.height": 48})
     calls = []

@@ -1,4 +1,4 @@
-"""Sweeps on a real Dask LocalCluster (experiments/distributed.py): 48 x 48 pixels, 32 spp, 2 timed frames.
+"""Sweeps on a real Dask LocalCluster (experiments/runs/dask_cluster.py): 48 x 48 pixels, 32 spp, 2 timed frames.
 
 - a Dask sweep writes the same rows as a serial one (timings, host and cache status aside);
 - a seeded reference is bit-identical whichever worker (or the driver) rendered it;
@@ -23,8 +23,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments import sweep
-from experiments.results import ResultStore
+from experiments.measure.results import ResultStore
+from experiments.runs import sweep
 
 pytestmark = [pytest.mark.gl, pytest.mark.mitsuba, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[2]
@@ -38,7 +38,7 @@ VOLATILE = {"realtime_ms", "realtime_p90_ms", "reference_s", "reference_cache", 
 
 @pytest.fixture(scope="module")
 def cluster():
-    from experiments.distributed import Cluster
+    from experiments.runs.dask_cluster import Cluster
 
     with Cluster(workers=2, echo=None) as c:
         yield c
@@ -71,7 +71,7 @@ def _log(cache_dir: str, name: str, text: str) -> None:
 
 def failing_reference(payload, seed, expect, cache_dir=None, use_cache=True):
     """The real task, except that the N = 200 scene raises (on every try)."""
-    from experiments.distributed import reference_task
+    from experiments.runs.dask_cluster import reference_task
 
     if payload["tree"]["objects"][0]["material"].get("exponent") == 200.0:
         _log(cache_dir, "attempts.log", f"{seed} {os.getpid()}")
@@ -81,7 +81,7 @@ def failing_reference(payload, seed, expect, cache_dir=None, use_cache=True):
 
 def slow_reference(payload, seed, expect, cache_dir=None, use_cache=True):
     """The real task, one second longer (so that a kill lands mid-task)."""
-    from experiments.distributed import reference_task
+    from experiments.runs.dask_cluster import reference_task
 
     _log(cache_dir, "starts.log", f"{expect}-{seed} {os.getpid()}")
     time.sleep(1.0)
@@ -108,9 +108,9 @@ def test_dask_rows_equal_serial_rows(tmp_path, cache, monkeypatch, cluster):
 
 def test_seeded_reference_is_bit_identical_on_every_worker(cache, cluster):
     import scenes
-    from experiments.distributed import reference_task, scene_payload
-    from experiments.sweep import content_id
-    from groundtruth import reference
+    from experiments.runs.dask_cluster import reference_task, scene_payload
+    from experiments.runs.sweep import content_id
+    from groundtruth.pathtracer import reference
 
     scene = scenes.load("builtin:sphere-phong").with_overrides(TINY)
     ref_id = content_id(scene, reference_only=True)
@@ -127,7 +127,7 @@ def test_seeded_reference_is_bit_identical_on_every_worker(cache, cluster):
 
 
 def test_a_task_that_raises_gives_an_error_row_and_the_rest_completes(tmp_path, cache, cluster):
-    from experiments.distributed import reference_task
+    from experiments.runs.dask_cluster import reference_task
 
     _pickle_by_value()
     out = tmp_path / "sweep"
@@ -151,7 +151,7 @@ def test_a_task_that_raises_gives_an_error_row_and_the_rest_completes(tmp_path, 
 
 
 def test_worker_killed_mid_task_is_retried_and_every_row_comes_out_once(tmp_path, cache):
-    from experiments.distributed import Cluster
+    from experiments.runs.dask_cluster import Cluster
 
     _pickle_by_value()
     killed: list[int] = []
@@ -211,7 +211,7 @@ def _alive(pid: int) -> bool:
 
 def test_driver_killed_its_workers_exit_and_the_rerun_resumes(tmp_path, cache):
     out = tmp_path / "sweep"
-    cmd = [sys.executable, "-m", "experiments.cli", "sweep", "builtin:sphere-blend", "--face-sizes", "16",
+    cmd = [sys.executable, "-m", "experiments.cli.main", "sweep", "builtin:sphere-blend", "--face-sizes", "16",
            "--lod-biases", "0,1,2", "--exponents", "20,200", "--out", str(out), "--workers", "2"]
     for k, v in TINY.items():
         cmd += ["--set", f"{k}={v}"]
@@ -252,7 +252,7 @@ def test_driver_killed_its_workers_exit_and_the_rerun_resumes(tmp_path, cache):
 
 
 def test_a_worker_without_a_mitsuba_variant_is_reported(monkeypatch):
-    from experiments.distributed import Cluster
+    from experiments.runs.dask_cluster import Cluster
     from scenes import MissingCapability
 
     monkeypatch.setenv("IBLCHECK_VARIANT", "no_such_variant")  # the spawned worker inherits it
@@ -263,7 +263,7 @@ def test_a_worker_without_a_mitsuba_variant_is_reported(monkeypatch):
 
 
 def test_paper_suite_rows_on_the_cluster_equal_serial_rows(tmp_path, cache, monkeypatch, cluster):
-    from experiments import paper
+    from experiments.paper import suite as paper
 
     tiny = paper.Settings(size=48, spp=32, frames=2, e1_faces=(8, 16), e2_faces=(16,), e2_biases=(0.0,),
                           e4_faces=(8,), e5_spps=(16,))
@@ -307,7 +307,7 @@ def test_sweep_on_a_running_scheduler_hands_the_references_back(tmp_path, cache)
         with Client(address, timeout=30) as c:
             c.wait_for_workers(1, timeout=60)
         lines: list[str] = []
-        from experiments.distributed import Cluster
+        from experiments.runs.dask_cluster import Cluster
 
         with Cluster(scheduler=address, echo=lines.append) as cl:
             rows = sweep.run(["builtin:sphere-blend"], AXES, tmp_path / "sweep", sets=TINY, report=False, cluster=cl)

@@ -1,4 +1,4 @@
-"""E9's pieces that need neither OpenGL nor Mitsuba (experiments/parameterizations.py, issue 13)."""
+"""E9's pieces that need neither OpenGL nor Mitsuba (experiments/paper/e09_parameterizations.py, issue 13)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import scenes
-from experiments import parameterizations as e9
+from experiments.paper import e09_parameterizations as e9
 
 
 def test_sampling_rates_at_a_budget():

@@ -17,7 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments import cli, gate, outputs
+from experiments.cli import main as cli
+from experiments.publish import outputs
+from experiments.runs import gate
 
 TINY = ["camera.width=48", "camera.height=48", "reference.spp=16", "realtime.timing_frames=2",
         "realtime.warmup_frames=1"]
@@ -406,7 +408,7 @@ def test_noise_estimates_match_the_spread_over_independent_references():
     d0 = gate.metric_noise(truth, truth + sigma * rng.standard_normal(truth.shape),
                            truth + sigma * rng.standard_normal(truth.shape), mask)
     assert d0["mse_se"] == pytest.approx(sigma**2 * math.sqrt(2 / (3 * 48 * 48)), rel=0.1)
-    from experiments import metrics
+    from experiments.measure import metrics
 
     values = {"mse": [], "ssim": [], "flip": []}
     estimates = {"mse": [], "ssim": [], "flip": []}

@@ -16,8 +16,9 @@ from pathlib import Path
 import pytest
 
 import scenes
-from experiments import cli, sweep
-from experiments.results import ResultStore
+from experiments.cli import main as cli
+from experiments.measure.results import ResultStore
+from experiments.runs import sweep
 
 pytestmark = [pytest.mark.gl, pytest.mark.mitsuba]
 ROOT = Path(__file__).resolve().parents[2]
@@ -67,7 +68,7 @@ def test_gate_uses_the_scenes_gate_table(tmp_path, capsys):
 def test_gate_malformed_scene_exits_2_with_one_error_line(tmp_path, bad):
     path = tmp_path / "bad.toml"
     path.write_text(bad)
-    out = subprocess.run([sys.executable, "-m", "experiments.cli", "gate", str(path), "--min-psnr", "20"],
+    out = subprocess.run([sys.executable, "-m", "experiments.cli.main", "gate", str(path), "--min-psnr", "20"],
                          capture_output=True, text=True, cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert out.returncode == 2
     lines = out.stderr.strip().splitlines()
@@ -90,7 +91,7 @@ def test_sweep_skips_axes_that_cannot_matter():
 
 
 def _sweep_cmd(out: Path) -> list[str]:
-    return [sys.executable, "-m", "experiments.cli", "sweep", "builtin:sphere-phong", "--face-sizes", "8,16,32",
+    return [sys.executable, "-m", "experiments.cli.main", "sweep", "builtin:sphere-phong", "--face-sizes", "8,16,32",
             "--lod-biases", "0,1,2", "--out", str(out), *sets()]
 
 
@@ -128,7 +129,7 @@ def test_sweep_killed_midway_resumes_with_every_row_once(tmp_path):
 def small_report(tmp_path_factory) -> Path:
     out = tmp_path_factory.mktemp("report")
     env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(tmp_path_factory.getbasetemp() / "cache")}
-    cmd = [sys.executable, "-m", "experiments.cli", "sweep", "builtin:sphere-blend", "builtin:sphere-diffuse",
+    cmd = [sys.executable, "-m", "experiments.cli.main", "sweep", "builtin:sphere-blend", "builtin:sphere-diffuse",
            "--face-sizes", "8,32", "--lod-biases", "0,2", "--out", str(out), *sets()]
     done = subprocess.run(cmd, cwd=ROOT, env=env, capture_output=True, text=True)
     assert done.returncode == 0, done.stderr

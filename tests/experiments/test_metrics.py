@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from experiments import metrics
-from scenes.render import Render
+from experiments.measure import metrics
+from scenes.model.render import Render
 
 
 @pytest.fixture

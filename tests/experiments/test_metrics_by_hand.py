@@ -1,5 +1,5 @@
 """SSIM and FLIP against values computed here from their published definitions, not from the libraries
-that experiments.metrics calls.
+that experiments.measure.metrics calls.
 
 SSIM (Wang et al. 2004) of two constant images a, b: both variances and the covariance are 0, so the
 structure term is C2 / C2 = 1 and SSIM = (2 a b + C1) / (a^2 + b^2 + C1), C1 = (0.01 L)^2, L = 1 (the data
@@ -19,7 +19,7 @@ import math
 import numpy as np
 import pytest
 
-from experiments import metrics
+from experiments.measure import metrics
 
 # --------------------------------------------------------------------------- SSIM
 

@@ -8,8 +8,9 @@ import json
 import pytest
 
 import scenes
-from experiments import cli, sweep
-from experiments.results import ResultRow, ResultStore
+from experiments.cli import main as cli
+from experiments.measure.results import ResultRow, ResultStore
+from experiments.runs import sweep
 from scenes import InputError
 
 
@@ -60,7 +61,7 @@ def test_negative_values_need_no_equals_sign(argv, want):
 
 
 def test_parse_axis():
-    from experiments.inputs import UsageError, parse_axis
+    from experiments.cli.inputs import UsageError, parse_axis
 
     assert parse_axis("realtime.glossy=box,prefiltered") == ("realtime.glossy", ["box", "prefiltered"])
     assert parse_axis("realtime.lod_bias=-1,0.5") == ("realtime.lod_bias", [-1, 0.5])
@@ -125,7 +126,7 @@ def test_technique_tables_vary_only_where_read():
 def test_technique_axes_come_from_the_techniques_declarations():
     import math
 
-    from realtime import technique
+    from realtime.engine import technique
 
     got = configs("builtin:sphere-diffuse", technique_axes=True)
     # every diffuse technique, each with the product of its own declared axes (sphere-diffuse is convex:
@@ -143,7 +144,7 @@ def test_technique_axes_come_from_the_techniques_declarations():
     ('environment.map="a,b.exr",builtin:uffizi', ("environment.map", ["a,b.exr", "builtin:uffizi"])),
 ])
 def test_axis_values_may_hold_commas_inside_brackets_and_quotes(text, want):
-    from experiments.inputs import parse_axis
+    from experiments.cli.inputs import parse_axis
 
     assert parse_axis(text) == want
 

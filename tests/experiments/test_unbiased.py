@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from experiments import metrics
+from experiments.measure import metrics
 
 SHAPE = (128, 128, 3)
 SEEDS = 50

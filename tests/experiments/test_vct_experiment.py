@@ -1,11 +1,11 @@
-"""E10's plan and measurements (experiments/vct_experiment.py), small: the grid, the step count the paper
+"""E10's plan and measurements (experiments/paper/e10_voxel_cone_tracing.py), small: the grid, the step count the paper
 suite's progress bar uses, the memory comparison, and the thin-wall leak measured (GL)."""
 
 from __future__ import annotations
 
 import pytest
 
-from experiments import vct_experiment as e10
+from experiments.paper import e10_voxel_cone_tracing as e10
 
 
 def test_configs_are_direct_then_occlusion_and_interreflection_per_setting():

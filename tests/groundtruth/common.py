@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 import scenes
-from experiments import metrics
+from experiments.measure import metrics
 from tests.helpers import sphere_scene_text, write_scene
 
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 import groundtruth
-from groundtruth import cache
+from groundtruth.pathtracer import reference_cache as cache
 from tests.groundtruth.common import small
 
 pytestmark = pytest.mark.mitsuba

@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import groundtruth
-from experiments import metrics
-from groundtruth import raycast
+from experiments.measure import metrics
+from groundtruth.exact import raycast
 from tests.groundtruth.common import furnace_scene, horizon_fraction
 
 pytestmark = pytest.mark.mitsuba

@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pytest
 
-from groundtruth import paper_bsdf
-from scenes.scene import Material
+from groundtruth.pathtracer import paper_bsdf
+from scenes.model.scene import Material
 
 pytestmark = pytest.mark.mitsuba
 

@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 
 import groundtruth
-from experiments import metrics
-from groundtruth import quadrature, raycast
+from experiments.measure import metrics
+from groundtruth.exact import quadrature, raycast
 from tests.groundtruth.common import furnace_scene, horizon_fraction, masked_psnr, small
 
 SIZE = 48

@@ -1,4 +1,4 @@
-"""groundtruth.reflectance (the paper's reflectance in numpy) against values worked out by hand.
+"""groundtruth.exact.reflectance (the paper's reflectance in numpy) against values worked out by hand.
 
 The quadrature normalises its kernels by their discrete sums, so a wrong lobe normalisation cancels out
 there: these checks hold the formulas themselves (design.md section 3):
@@ -12,8 +12,8 @@ import math
 import numpy as np
 import pytest
 
-from groundtruth import reflectance
-from scenes.scene import Material
+from groundtruth.exact import reflectance
+from scenes.model.scene import Material
 
 
 @pytest.mark.parametrize(("one_minus_cos", "exponent", "value"), [

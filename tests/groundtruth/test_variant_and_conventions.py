@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 import groundtruth
-from groundtruth import mitsuba_scene, variant
+from groundtruth.pathtracer import mitsuba_scene, variant
 from tests.groundtruth.common import small
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -85,7 +85,7 @@ def test_integrator_follows_the_effects(integrator, objects, expected):
 
         tree = dict(scene.source)
         tree["objects"] = [dict(tree["objects"][0]), {**tree["objects"][0], "translate": [2.5, 0.0, 0.0]}]
-        scene = scenes.scene.from_dict(tree, "two.toml", ROOT, "two")
+        scene = scenes.model.scene.from_dict(tree, "two.toml", ROOT, "two")
     assert mitsuba_scene.integrator_kind(scene) == expected
     depth = mitsuba_scene.integrator_dict(scene)["max_depth"]
     assert depth == (2 if expected == "direct" else scene.reference.max_depth)
@@ -106,7 +106,7 @@ def test_phong_exponent_to_ggx_alpha(exponent, alpha):
 def test_plugin_diffuse_equals_mitsubas_builtin_diffuse(tmp_path, monkeypatch):
     """model = "physical" maps diffuse to Mitsuba's own `diffuse`: the same image within noise."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
-    from experiments import metrics
+    from experiments.measure import metrics
 
     scene = small("builtin:sphere-diffuse", size=32, spp=256)
     p1, p2 = groundtruth.render_pair(scene)

@@ -25,7 +25,7 @@ def run_cli(*args: str, cache: Path | None = None) -> subprocess.CompletedProces
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
     if cache is not None:
         env["IBLCHECK_CACHE"] = str(cache)
-    return subprocess.run([sys.executable, "-m", "experiments.cli", *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "experiments.cli.main", *args], capture_output=True, text=True,
                           cwd=ROOT, env=env, timeout=600)
 
 
@@ -39,7 +39,7 @@ def one_error_line(out: subprocess.CompletedProcess) -> str:
 
 
 def write_env(path: Path, rgb: np.ndarray) -> Path:
-    from scenes import imageio
+    from scenes.storage import imageio
 
     if path.suffix == ".exr":
         imageio.write_exr(path, rgb.astype(np.float32))

@@ -1,6 +1,6 @@
 """Issue 11, section 5: the two renderers (and the quadrature) agree on back faces and silhouettes.
 
-One rule (scenes/materials.py): where the shading normal faces away from the viewer (n.v <= 0), a one-sided
+One rule (scenes/model/materials.py): where the shading normal faces away from the viewer (n.v <= 0), a one-sided
 material is black in all three renderers; `material.two_sided = true` flips the normal instead (the reference
 wraps its BSDF in Mitsuba's `twosided`). Tested on both sides of a plane at several angles, a cube with shared
 vertices (smooth normals: the interpolated normal turns away while the face still faces the viewer), coarse
@@ -17,8 +17,9 @@ import pytest
 import groundtruth
 import realtime
 import scenes
-from experiments import hostile, metrics
-from groundtruth import quadrature, raycast
+from experiments.measure import metrics
+from experiments.paper import e06_hostile_cases as hostile
+from groundtruth.exact import quadrature, raycast
 
 pytestmark = [pytest.mark.gl, pytest.mark.mitsuba]
 SIZE, SPP = 32, 64
@@ -177,7 +178,7 @@ def test_the_physical_model_follows_the_rule_too():
 def _plugin_eval(mi, material, wi, wo):
     import drjit as dr
 
-    from groundtruth import mitsuba_scene, paper_bsdf
+    from groundtruth.pathtracer import mitsuba_scene, paper_bsdf
 
     paper_bsdf.register(mi)
     sc = scenes.load("builtin:sphere-blend")
@@ -192,7 +193,7 @@ def _plugin_eval(mi, material, wi, wo):
 
 @pytest.mark.parametrize("kind", ["diffuse", "phong", "blend"])
 def test_the_plugin_is_zero_behind_the_normal_and_twosided_mirrors_it(mi, rng, kind):
-    from scenes.scene import Material
+    from scenes.model.scene import Material
 
     wo = rng.normal(size=(500, 3))
     wo /= np.linalg.norm(wo, axis=1, keepdims=True)
@@ -209,15 +210,15 @@ def test_the_plugin_is_zero_behind_the_normal_and_twosided_mirrors_it(mi, rng, k
 
 
 def test_two_sided_is_in_the_reference_key_and_the_rows():
-    from groundtruth import cache
-    from scenes import materials
+    from groundtruth.pathtracer import reference_cache as cache
+    from scenes.model import materials
 
     one, two = scene(), scene(**{"objects.0.material.two_sided": True})
     env = one.environment.radiance()
     keys = [cache.reference_key(s, env, 8, 0, "v", "3", 4, "direct") for s in (one, two)]
     assert keys[0] != keys[1]
     assert materials.used_fields(two.objects[0].material)["two_sided"] is True
-    from experiments import sweep
+    from experiments.runs import sweep
 
     assert sweep.content_id(one) != sweep.content_id(two)
 

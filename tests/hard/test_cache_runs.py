@@ -14,7 +14,7 @@ import pytest
 
 import groundtruth
 import scenes
-from groundtruth import cache
+from groundtruth.pathtracer import reference_cache as cache
 
 pytestmark = pytest.mark.mitsuba
 

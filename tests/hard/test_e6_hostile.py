@@ -4,8 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from experiments import paper, stability
-from experiments.stability_hostile import HostileCases
+from experiments.paper import e06_stability as stability
+from experiments.paper import suite as paper
+from experiments.paper.e06_hostile_runs import HostileCases
 
 CLASSES = ["escaping", "output paths", "exit codes", "silent misreads", "back faces", "stale sweeps"]
 

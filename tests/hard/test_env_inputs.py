@@ -7,8 +7,8 @@ import pytest
 
 import realtime
 import scenes
-from experiments import metrics
-from groundtruth import quadrature
+from experiments.measure import metrics
+from groundtruth.exact import quadrature
 from tests.hard.common import one_error_line, run_cli, write_env, write_tiny
 
 
@@ -34,14 +34,14 @@ def test_invalid_pixels_refused_then_sanitized(tmp_path, value, word):
     ok = run_cli("render", str(path), "-o", str(tmp_path / "o.exr"), "--sanitize")
     assert ok.returncode == 0, ok.stderr
     assert "replaced 2" in ok.stderr
-    out = scenes.imageio.read_exr(tmp_path / "o.exr")
+    out = scenes.storage.imageio.read_exr(tmp_path / "o.exr")
     # sanitized means those pixels are 0: the same image as a map that holds 0 there to begin with
     rgb[3, 5, 1] = rgb[9, 1, 0] = 0.0
     write_env(tmp_path / "zeroed.exr", rgb)
     zeroed_scene = write_tiny(tmp_path, env="zeroed.exr", name="zeroed")
     zeroed = run_cli("render", str(zeroed_scene), "-o", str(tmp_path / "z.exr"))
     assert zeroed.returncode == 0, zeroed.stderr
-    np.testing.assert_array_equal(out, scenes.imageio.read_exr(tmp_path / "z.exr"))
+    np.testing.assert_array_equal(out, scenes.storage.imageio.read_exr(tmp_path / "z.exr"))
 
 
 @pytest.mark.parametrize("damage", ["truncate", "garbage"])
@@ -66,7 +66,9 @@ def test_wrong_channel_count_exits_2(tmp_path):
 
 
 def test_too_large_is_refused_before_allocating(tmp_path, monkeypatch):
-    from scenes import EnvMapError, envmap, imageio
+    from scenes import EnvMapError
+    from scenes.environment import envmap
+    from scenes.storage import imageio
 
     write_env(tmp_path / "env.exr", np.ones((64, 128, 3), np.float32))
     monkeypatch.setattr(imageio, "MAX_PIXELS", 1000)
@@ -115,7 +117,7 @@ def test_single_hot_pixel_of_1e6_in_the_glossy_chain(tmp_path):
     rt = realtime.render(scene)
     n, v, interior = unit_sphere_hits(scene.camera)
     mirror = 2 * np.sum(n * v, axis=-1, keepdims=True) * n - v
-    chain = box_chain(scenes.envmap.read(tmp_path / "env.exr"), 256)
+    chain = box_chain(scenes.environment.envmap.read(tmp_path / "env.exr"), 256)
     expected, inside = trilinear(chain, mirror.reshape(-1, 3), 2.0)
     expected, inside = expected.reshape(rt.rgb.shape), inside.reshape(rt.mask.shape)
     sel = interior & rt.mask & inside

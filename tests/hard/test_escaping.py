@@ -1,6 +1,6 @@
 """Issue 11, section 1: everything that reaches HTML, XML, Markdown or a terminal is escaped.
 
-Hostile names (experiments/hostile.py: markup, script URLs, template syntax, mathtext, terminal escapes,
+Hostile names (experiments/paper/e06_hostile_cases.py: markup, script URLs, template syntax, mathtext, terminal escapes,
 control characters, bidirectional overrides) go into every field that carries text: the scene name, the
 map and mesh file names, `--set` values and sweep axis values; the report page runs none of them (checked
 by parsing it, and in headless Chromium when it is installed), the summary and the JUnit file stay well
@@ -17,9 +17,12 @@ import xml.etree.ElementTree as ET
 import numpy as np
 import pytest
 
-from experiments import cli, gate, hostile, report, text
-from experiments.comparison import format_table
-from experiments.stability_hostile import tiny_scene
+from experiments.cli import main as cli
+from experiments.measure.comparison import format_table
+from experiments.paper import e06_hostile_cases as hostile
+from experiments.paper.e06_hostile_runs import tiny_scene
+from experiments.publish import report, text
+from experiments.runs import gate
 from tests.hard.common import write_env
 
 NAMES = hostile.HOSTILE_NAMES

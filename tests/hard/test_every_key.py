@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from scenes import SceneError
-from scenes.scene import SCHEMA, from_dict
+from scenes.model.scene import SCHEMA, from_dict
 
 
 def bad_values(text: str) -> list:

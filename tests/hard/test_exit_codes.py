@@ -19,10 +19,12 @@ import time
 import numpy as np
 import pytest
 
-from experiments import cli, hostile
-from experiments.results import RESULTS
-from experiments.stability_hostile import tiny_scene
-from scenes import MissingCapability, imageio
+from experiments.cli import main as cli
+from experiments.measure.results import RESULTS
+from experiments.paper import e06_hostile_cases as hostile
+from experiments.paper.e06_hostile_runs import tiny_scene
+from scenes import MissingCapability
+from scenes.storage import imageio
 from tests.hard.common import ROOT
 
 INTERNAL = [ZeroDivisionError("division by zero"), AttributeError("'NoneType' object has no attribute 'x'"),
@@ -78,7 +80,7 @@ def test_other_endings_keep_their_codes(capsys, exc, code, words):
 
 
 def test_a_crash_inside_the_gate_is_not_a_failed_gate(tmp_path, capsys, monkeypatch):
-    from experiments import comparison
+    from experiments.measure import comparison
 
     # the gate measures in announced steps (gate.measure), each of which ends in comparison.compare
     monkeypatch.setattr(comparison, "compare", raising(RuntimeError("the GL driver crashed")))
@@ -89,7 +91,7 @@ def test_a_crash_inside_the_gate_is_not_a_failed_gate(tmp_path, capsys, monkeypa
 @pytest.mark.parametrize("flag", ["--min-psnr", "--min-ssim", "--max-flip"])
 @pytest.mark.parametrize("value", ["nan", "NaN", "inf", "-inf", "1e999", "abc", "", "0x10", "1e3000"])
 def test_thresholds_must_be_finite_numbers(tmp_path, capsys, monkeypatch, flag, value):
-    from experiments import comparison
+    from experiments.measure import comparison
 
     monkeypatch.setattr(comparison, "compare", raising(AssertionError("compared before the thresholds were checked")))
     code = cli.main(["gate", str(tiny_scene(tmp_path)), f"{flag}={value}"])
@@ -223,8 +225,8 @@ def test_bright_but_accepted_maps_render_finite_in_all_three_renderers(tmp_path,
     import groundtruth
     import realtime
     import scenes
-    from experiments import metrics
-    from groundtruth import quadrature
+    from experiments.measure import metrics
+    from groundtruth.exact import quadrature
 
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
     rgb = np.full((8, 16, 3), 0.5, np.float32)
@@ -275,7 +277,7 @@ def test_a_scene_folder_or_device_says_so(tmp_path, capsys):
 
 
 def test_a_huge_scene_file_is_refused_before_parsing(tmp_path, capsys, monkeypatch):
-    from scenes import scene
+    from scenes.model import scene
 
     monkeypatch.setattr(scene, "MAX_SCENE_BYTES", 100)
     path = tiny_scene(tmp_path)
@@ -292,7 +294,7 @@ def test_a_huge_scene_file_is_refused_before_parsing(tmp_path, capsys, monkeypat
 def test_ctrl_c_exits_130_and_the_sweep_resumes(tmp_path):
     """SIGINT during a sweep: exit 130 with one line; rerun: every row once."""
     scene = tiny_scene(tmp_path)
-    cmd = [sys.executable, "-m", "experiments.cli", "sweep", str(scene), "--face-sizes", "1,2,4,8", "--lod-biases",
+    cmd = [sys.executable, "-m", "experiments.cli.main", "sweep", str(scene), "--face-sizes", "1,2,4,8", "--lod-biases",
            "0,1", "--out", str(tmp_path / "sw")]
     env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(tmp_path / "cache")}
     proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)

@@ -8,9 +8,11 @@ import pytest
 import groundtruth
 import realtime
 import scenes
-from experiments import metrics
-from groundtruth import quadrature, reflectance
-from scenes import MeshError, envmap, meshes
+from experiments.measure import metrics
+from groundtruth.exact import quadrature, reflectance
+from scenes import MeshError
+from scenes.environment import envmap
+from scenes.geometry import meshes
 from tests.hard.common import run_cli, write_tiny
 from tests.helpers import unit_sphere_hits
 
@@ -67,7 +69,7 @@ def test_camera_inside_the_object(tmp_path, monkeypatch):
     """Inside a closed sphere every pixel sees its inner, back-facing surface. The reference is exactly 0 (the
     sphere blocks all light), and so is the quadrature (whatever the back-face rule: F = 1 puts the lobe about
     the mirror direction below the horizon of n, and a one-sided material is black there). The real-time
-    image, which ignores occlusion, follows the back-face rule of scenes/materials.py (issue 11): only
+    image, which ignores occlusion, follows the back-face rule of scenes/model/materials.py (issue 11): only
     required finite and non-negative here."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
     scene = small("builtin:sphere-blend", **{"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0})
@@ -96,8 +98,8 @@ def test_object_outside_the_view_gives_an_empty_mask_and_a_clear_message(tmp_pat
 
 def numpy_diffuse(scene, level: int, normals: np.ndarray) -> np.ndarray:
     """kd / pi max(E(n), 0) with SH9 of mip level `level` of the numpy cube map (base 256, box filter)."""
-    from realtime import sh
-    from scenes import cubemap
+    from realtime.engine import sh
+    from scenes.environment import cubemap
 
     faces = cubemap.mip_chain(cubemap.from_equirect(scene.environment.radiance(), 256))[level]
     M = sh.irradiance_matrices(sh.project_cube(faces))
@@ -205,8 +207,8 @@ def test_silhouette_normals_of_a_coarse_sphere():
     raycast (same mesh, same vertex normals) finds independently; F runs from f0 to nearly 1 across the
     coarse facets. Tolerance 1e-4 (measured 8e-6). Where the interpolated normal has turned away from the
     viewer (n.v <= 0, a few silhouette pixels) the image is only required to be finite: what a back face
-    shows is the back-face rule of scenes/materials.py (issue 11), not this test's."""
-    from groundtruth import raycast
+    shows is the back-face rule of scenes/model/materials.py (issue 11), not this test's."""
+    from groundtruth.exact import raycast
 
     kd, ks, f0 = 0.3, 0.9, 0.04
     scene = small("builtin:sphere-blend", **{
@@ -224,7 +226,7 @@ def test_silhouette_normals_of_a_coarse_sphere():
 
 
 def test_metrics_of_an_empty_mask_via_cli_gate_table():
-    from experiments.gate import GateResult, evaluate, format_table
+    from experiments.runs.gate import GateResult, evaluate, format_table
 
     failures = evaluate({"psnr": None}, {"min_psnr": 30.0})
     assert failures == ["psnr undefined (no covered pixels), required >= 30"]

@@ -13,9 +13,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from experiments import cli, outputs, render_cmd
-from experiments.stability_hostile import tiny_scene
-from scenes import files, imageio
+from experiments.cli import main as cli
+from experiments.cli import render_cmd
+from experiments.paper.e06_hostile_runs import tiny_scene
+from experiments.publish import outputs
+from scenes.storage import files, imageio
 
 SLUGS = [("../../x", "x"), ("/etc/passwd", "etc-passwd"), ("..", "scene"), (".", "scene"), ("", "scene"),
          (".hidden", "hidden"), ("a/b\\c", "a-b-c"), ("\x1b[31mred\x1b[0m", "31mred-0m"), ("--help", "help"),
@@ -38,7 +40,8 @@ def no_render(monkeypatch):
         raise AssertionError("rendered before the output path was checked")
 
     monkeypatch.setattr(render_cmd, "render_with", refuse)
-    from experiments import comparison, gate
+    from experiments.measure import comparison
+    from experiments.runs import gate
 
     monkeypatch.setattr(comparison, "run", refuse)
     monkeypatch.setattr(gate, "measure", refuse)  # compare and gate measure through it
@@ -166,7 +169,7 @@ def test_exr_write_interrupted_leaves_nothing(tmp_path, monkeypatch):
 
 @pytest.mark.gl
 def test_render_interrupted_while_writing_leaves_no_file(tmp_path, capsys, monkeypatch):
-    from experiments import images
+    from experiments.publish import images
 
     def interrupted(path, rgb01):
         raise KeyboardInterrupt

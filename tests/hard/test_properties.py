@@ -7,11 +7,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from groundtruth import reflectance
-from realtime import sh
-from scenes import tonemap
-from scenes.directions import equirect_directions
-from scenes.shbasis import sh9
+from groundtruth.exact import reflectance
+from realtime.engine import sh
+from scenes.environment.directions import equirect_directions
+from scenes.environment.shbasis import sh9
+from scenes.model import tonemap
 
 finite = st.floats(-10, 10, allow_nan=False, allow_infinity=False)
 coeff_sets = arrays(np.float64, (9, 3), elements=finite)

@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from realtime import deringing, sh
-from scenes import environments
+from realtime.engine import sh
+from realtime.techniques.sh import deringing
+from scenes.environment import environments
 
 
 def sky(sun: float) -> np.ndarray:
@@ -92,7 +93,7 @@ def test_blend_shading_clamps_negative_irradiance_to_zero(window):
     clamp the pixels where E < 0 would lose the whole glossy term."""
     import realtime
     import scenes
-    from scenes import cubemap
+    from scenes.environment import cubemap
 
     scene = scenes.load("builtin:sphere-sky").with_overrides({
         "camera.width": 32, "camera.height": 32, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,

@@ -14,9 +14,13 @@ import warnings
 import numpy as np
 import pytest
 
-from experiments import cli, hostile
-from experiments.stability_hostile import tiny_scene
-from scenes import EnvMapError, MeshError, SceneError, envmap, imageio, meshes
+from experiments.cli import main as cli
+from experiments.paper import e06_hostile_cases as hostile
+from experiments.paper.e06_hostile_runs import tiny_scene
+from scenes import EnvMapError, MeshError, SceneError
+from scenes.environment import envmap
+from scenes.geometry import meshes
+from scenes.storage import imageio
 from tests.hard.common import write_env
 
 

@@ -16,10 +16,12 @@ import sys
 import numpy as np
 import pytest
 
-from experiments import cli, hostile, sweep
-from experiments.results import RESULTS, FolderBusy, ResultStore, folder_lock
-from experiments.stability_hostile import tiny_scene
-from scenes import imageio
+from experiments.cli import main as cli
+from experiments.measure.results import RESULTS, FolderBusy, ResultStore, folder_lock
+from experiments.paper import e06_hostile_cases as hostile
+from experiments.paper.e06_hostile_runs import tiny_scene
+from experiments.runs import sweep
+from scenes.storage import imageio
 from tests.hard.common import ROOT
 
 
@@ -93,7 +95,7 @@ def test_versions_are_part_of_the_id(files, monkeypatch):
     monkeypatch.setattr(sweep, "ROW_VERSION", sweep.ROW_VERSION + 1)
     assert rid(files) != before
     monkeypatch.undo()
-    from groundtruth import paper_bsdf
+    from groundtruth.pathtracer import paper_bsdf
 
     monkeypatch.setattr(paper_bsdf, "PLUGIN_VERSION", paper_bsdf.PLUGIN_VERSION + 1)
     assert rid(files) != before
@@ -196,8 +198,8 @@ def test_the_lock_is_released_and_leaves_no_file(tmp_path):
 def test_two_sweeps_at_once_write_each_row_once(files, tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(tmp_path / "cache")}
     out = tmp_path / "both"
-    cmd = [sys.executable, "-m", "experiments.cli", "sweep", str(files), "--face-sizes", "2,4,8", "--lod-biases", "0",
-           "--out", str(out)]
+    cmd = [sys.executable, "-m", "experiments.cli.main", "sweep", str(files), "--face-sizes", "2,4,8",
+           "--lod-biases", "0", "--out", str(out)]
     procs = [subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
              for _ in range(2)]
     results = [(p.wait(timeout=300), p.stderr.read()) for p in procs]

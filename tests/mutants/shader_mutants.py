@@ -30,7 +30,8 @@ ROOT = Path(__file__).resolve().parents[2]
 
 # (file, exact original snippet, replacement, description)
 MUTANTS: list[tuple[str, str, str, str]] = [
-    ("realtime/glossy_box.py", "rt.base_size, rt.lod_bias, rt.lod_mapping", "rt.base_size, 0.0, rt.lod_mapping",
+    ("realtime/techniques/box/glossy_box.py", "rt.base_size, rt.lod_bias, rt.lod_mapping",
+     "rt.base_size, 0.0, rt.lod_mapping",
      "ignore the LOD bias (host side: the glossy LOD reaches the shader as the uniform glossy_lod)"),
     ("realtime/shaders/glossy_box.glsl", "textureLod(env_cube, r, glossy_lod)", "textureLod(env_cube, r, 0.0)",
      "glossy lookup ignores its LOD (reads the base level)"),

@@ -1,12 +1,12 @@
-"""Cube-edge neighbours and the seam measure (realtime/cube_seams.py), pure numpy."""
+"""Cube-edge neighbours and the seam measure (realtime/engine/cube_seams.py), pure numpy."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from realtime.cube_seams import edge_pairs, seam_residual
-from scenes import cubemap
+from realtime.engine.cube_seams import edge_pairs, seam_residual
+from scenes.environment import cubemap
 
 
 @pytest.mark.parametrize("size", [2, 4, 16])

@@ -3,7 +3,7 @@ rendered in real time at 48x48, are bit-identical to the images the paper's meth
 the techniques refactor (tests/data/realtime_golden.npz, made by tests/data/make_realtime_golden.py).
 
 One deliberate exception: McGuire's LOD offset log2(s sqrt 3) - log2(N + 1) / 2 used to be evaluated
-in float32 inside shade.frag and is now computed once in float64 on the host (realtime.levels, as the
+in float32 inside shade.frag and is now computed once in float64 on the host (realtime.engine.levels, as the
 issue asks); the two differ in the last bit of the LOD, which moves trilinear weights by ~1e-7, so
 that case must agree to 1e-6 relative, not bit for bit (measured: 2.4e-7).
 
@@ -45,7 +45,7 @@ def saved():
 def test_paper_image_unchanged(saved, name, spec, overrides):
     import realtime
     import scenes
-    from realtime.context import is_software
+    from realtime.engine.context import is_software
 
     r = realtime.render(scenes.load(spec).with_overrides(golden.small(overrides)))
     want_rgb, want_mask = saved[f"{name}/rgb"], saved[f"{name}/mask"]

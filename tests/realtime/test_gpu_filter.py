@@ -5,10 +5,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from realtime import sh
-from realtime.context import get_context
-from realtime.gpu import EnvironmentFilter
-from scenes import cubemap, environments
+from realtime.engine import sh
+from realtime.engine.context import get_context
+from realtime.engine.gpu import EnvironmentFilter
+from scenes.environment import cubemap, environments
 
 pytestmark = pytest.mark.gl
 

@@ -1,4 +1,5 @@
-"""The brute-force irradiance cube map (realtime/irradiance_map.py) against independent references."""
+"""The brute-force irradiance cube map (realtime/techniques/irradiance_map/irradiance_convolution.py) against
+independent references."""
 
 from __future__ import annotations
 
@@ -6,12 +7,12 @@ import numpy as np
 import pytest
 
 import scenes
-from groundtruth.quadrature import DIFFUSE_WIDTH, cell_grid, irradiance
-from realtime.context import get_context
-from realtime.gpu import EnvironmentFilter
-from realtime.irradiance_map import IrradianceConvolver, irradiance_cube_numpy
-from realtime.readback import read_cube_level
-from scenes import cubemap, environments
+from groundtruth.exact.quadrature import DIFFUSE_WIDTH, cell_grid, irradiance
+from realtime.engine.context import get_context
+from realtime.engine.gpu import EnvironmentFilter
+from realtime.engine.readback import read_cube_level
+from realtime.techniques.irradiance_map.irradiance_convolution import IrradianceConvolver, irradiance_cube_numpy
+from scenes.environment import cubemap, environments
 
 pytestmark = pytest.mark.gl
 

@@ -1,4 +1,4 @@
-"""Level selection and the glossy LOD (realtime.levels) against values worked out by hand.
+"""Level selection and the glossy LOD (realtime.engine.levels) against values worked out by hand.
 
 The formulas (design.md section 3, steps 2 and 5): level(s) = log2(base / s); "auto" takes s linear in
 the object's distance between 64 at 2 and 8 at 16, snapped to a power of two in log2;
@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import pytest
 
-from realtime import levels
+from realtime.engine import levels
 
 LOG2_SQRT3 = 0.792481250360
 
@@ -90,5 +90,5 @@ def test_glossy_lod_by_hand(face_size, base, bias, mapping, exponent, lod):
 def test_glossy_lod_unclamped_by_hand(face_size, base, bias, mapping, exponent, lod):
     """The same sum before the cube's clamp (a 2D parameterization clamps to its own chain)."""
     if not hasattr(levels, "glossy_lod_unclamped"):
-        pytest.skip("no glossy_lod_unclamped in this version of realtime.levels")
+        pytest.skip("no glossy_lod_unclamped in this version of realtime.engine.levels")
     assert levels.glossy_lod_unclamped(face_size, base, bias, mapping, exponent) == pytest.approx(lod, abs=1e-9)

@@ -1,7 +1,8 @@
-"""The light array and its shadow maps on the GPU (realtime/lights.py, realtime/shadow_maps.py) against
+"""The light array and its shadow maps on the GPU (realtime/techniques/lights/lights.py,
+realtime/techniques/shadow_maps/shadow_maps.py) against
 independent expectations.
 
-- The powers summed on the GPU every frame equal the numpy powers (scenes/light_array.py), and a turning
+- The powers summed on the GPU every frame equal the numpy powers (scenes/environment/light_array.py), and a turning
   environment turns the directions, not the powers.
 - A constant environment of radiance 1 lights an unoccluded diffuse sphere to kd within the cosine
   sum's discretisation bound (tests/scenes/test_light_array.py: 1% at 642 lights).
@@ -20,8 +21,9 @@ import numpy as np
 import pytest
 
 import realtime
-from scenes import imageio, light_array
-from scenes.directions import equirect_directions, rotation_y
+from scenes.environment import light_array
+from scenes.environment.directions import equirect_directions, rotation_y
+from scenes.storage import imageio
 
 from .test_render import SIZE, small
 
@@ -32,10 +34,10 @@ LIGHTS = {"realtime.diffuse": "lights"}
 
 def gpu_array(scene, rotation_deg: float = 0.0):
     """The scene's LightArrayGpu after one frame at `rotation_deg` (and the context's env store)."""
-    from realtime import technique
-    from realtime.context import get_context
-    from realtime.lights import shared_array
-    from realtime.parameterizations import environment_store
+    from realtime.engine import technique
+    from realtime.engine.context import get_context
+    from realtime.engine.environment_maps import environment_store
+    from realtime.techniques.lights.lights import shared_array
 
     ctx = get_context()
     store = environment_store(ctx, scene)
@@ -92,7 +94,7 @@ def test_a_sphere_under_an_opaque_plane_gets_nothing_from_the_lights_above(tmp_p
     tree = {**alone.source, "objects": [alone.source.get("objects", [{}])[0],
                                         {"shape": "plane", "scale": 50 / 0.7, "translate": [0.0, 1.0, 0.0],
                                          "material": {"type": "diffuse", "kd": [0.5, 0.5, 0.5]}}]}
-    from scenes.scene import from_dict
+    from scenes.model.scene import from_dict
 
     covered = from_dict(tree, alone.path, tmp_path).with_overrides({"realtime.occlusion": "shadow_maps",
                                                          "realtime.lights.shadow_map_size": 1024})
@@ -111,8 +113,8 @@ def test_a_sphere_under_an_opaque_plane_gets_nothing_from_the_lights_above(tmp_p
 def test_shadow_maps_agree_with_embree_visibility_up_to_the_map_resolution():
     import trimesh
 
-    from groundtruth import raycast
-    from realtime.shadow_maps import NORMAL_OFFSET_TEXELS, bounding_sphere
+    from groundtruth.exact import raycast
+    from realtime.techniques.shadow_maps.shadow_maps import NORMAL_OFFSET_TEXELS, bounding_sphere
 
     size = 512
     base = small("builtin:sphere-on-plane", **{"environment.map": "builtin:sky", "environment.params.sun": 1e5,
@@ -157,8 +159,8 @@ def test_shadow_maps_agree_with_embree_visibility_up_to_the_map_resolution():
                               "realtime.lights.count": 64, "objects.0.material.exponent": 20.0}),
 ])
 def test_the_array_through_mitsuba_directional_emitters_is_the_same_image(mi, name, overrides):
-    from experiments import comparison
-    from groundtruth import reference
+    from experiments.measure import comparison
+    from groundtruth.pathtracer import reference
 
     scene = small(name, **LIGHTS, **overrides, **{"camera.width": 48, "camera.height": 48,
                                                  "reference.lighting": "light_array", "reference.spp": 1024})
@@ -187,7 +189,7 @@ def test_shadow_maps_and_prt_visibility_agree_on_the_same_scene(tmp_path, monkey
         "realtime.lights.shadow_map_size": 256}))
     prt = realtime.render(small("builtin:sphere-on-plane", **base, **{
         "realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.prt.rays": 1024}))
-    from groundtruth import raycast
+    from groundtruth.exact import raycast
 
     hits = raycast.cast(small("builtin:sphere-on-plane", **base), 1)
     plane = (hits.object_id[..., 0] == 1) & sm.mask & prt.mask

@@ -1,8 +1,9 @@
 """The dual paraboloid and the sphere map through the whole real-time pipeline (issue 13).
 
 Independent expectations:
-- the GPU's base level is the Mitsuba-convention lookup (scenes.envmap) at every texel's direction
-  (scenes/paraboloid.py, scenes/spheremap.py), its chain the 2x2 box mean computed here in numpy, its
+- the GPU's base level is the Mitsuba-convention lookup (scenes.environment.envmap) at every texel's direction
+  (scenes/environment/paraboloid.py, scenes/environment/spheremap.py), its chain the 2x2 box mean computed here in
+  numpy, its
   SH9 the numpy projection with exact texel solid angles, and close to the equirect map's own;
 - a constant environment gives kd (diffuse) and ks (mirror, any LOD) on every parameterization;
 - orientation: a map with one bright, marked direction lights a mirror sphere at the pixel the analytic
@@ -21,12 +22,12 @@ import numpy as np
 import pytest
 
 import realtime
-from realtime import sh
-from realtime.context import get_context
-from realtime.parameterizations import MAPPINGS, MapShProjector, MapStore, environment_store, map_frame
-from scenes import cubemap, envmap
-from scenes.directions import equirect_directions
-from scenes.shbasis import sh9, sh_basis
+from realtime.engine import sh
+from realtime.engine.context import get_context
+from realtime.engine.environment_maps import MAPPINGS, MapShProjector, MapStore, environment_store, map_frame
+from scenes.environment import cubemap, envmap
+from scenes.environment.directions import equirect_directions
+from scenes.environment.shbasis import sh9, sh_basis
 
 from .test_render import analytic_sphere, small
 
@@ -226,9 +227,9 @@ void main() {
 @pytest.mark.parametrize("name", list(MAPPINGS))
 @pytest.mark.parametrize("bias", [0.0, 1.5])
 def test_the_lookup_reads_the_level_of_equal_solid_angle(name, bias):
-    from realtime.glossy_box import BoxGlossy
-    from realtime.gpu import SceneDrawer
-    from realtime.technique import Frame
+    from realtime.engine.gpu import SceneDrawer
+    from realtime.engine.technique import Frame
+    from realtime.techniques.box.glossy_box import BoxGlossy
 
     base, face = 64, 16
     scene = small("builtin:sphere-phong", **{"realtime.parameterization": name, "realtime.base_size": base,

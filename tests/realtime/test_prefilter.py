@@ -1,4 +1,5 @@
-"""The Phong-prefiltered chain (realtime/prefilter.py) against exact texel sums and analytic limits."""
+"""The Phong-prefiltered chain (realtime/techniques/prefiltered/prefilter.py) against exact texel sums and analytic
+limits."""
 
 from __future__ import annotations
 
@@ -6,12 +7,12 @@ import moderngl
 import numpy as np
 import pytest
 
-from groundtruth.reflectance import phong_lobe
-from realtime.context import get_context
-from realtime.cube_seams import seam_residual, smooth_lobes
-from realtime.gpu import EnvironmentFilter
-from realtime.prefilter import PhongPrefilter, phong_convolve_numpy, phong_samples
-from scenes import cubemap, environments
+from groundtruth.exact.reflectance import phong_lobe
+from realtime.engine.context import get_context
+from realtime.engine.cube_seams import seam_residual, smooth_lobes
+from realtime.engine.gpu import EnvironmentFilter
+from realtime.techniques.prefiltered.prefilter import PhongPrefilter, phong_convolve_numpy, phong_samples
+from scenes.environment import cubemap, environments
 
 pytestmark = pytest.mark.gl
 

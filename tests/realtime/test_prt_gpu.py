@@ -1,4 +1,4 @@
-"""Precomputed radiance transfer in the shading pass (realtime/prt.py) against independent expectations.
+"""Precomputed radiance transfer in the shading pass (realtime/techniques/prt/prt.py) against independent expectations.
 
 - A convex object's transfer is its unshadowed transfer A_l Y_k(n), so PRT shading of a sphere equals
   SH irradiance of the same order (`diffuse = "sh"`, the paper's path for order 2) to float precision,
@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import realtime
-from realtime import technique
+from realtime.engine import technique
 
 from .test_render import small
 
@@ -45,9 +45,9 @@ def test_prt_of_a_convex_sphere_is_sh_irradiance_of_the_same_order(order, occlus
 def test_prt_at_the_vertices_is_sh_irradiance_to_float_precision():
     """The transfer dotted with the environment's SH (the vertex shader's sum) against numpy SH irradiance."""
     import scenes
-    from realtime.prt import transfer_objects
-    from realtime.prt_transfer import transfer
-    from realtime.sh import irradiance_from_sh, project_equirect
+    from realtime.engine.sh import irradiance_from_sh, project_equirect
+    from realtime.techniques.prt.prt import transfer_objects
+    from realtime.techniques.prt.prt_transfer import transfer
 
     scene = scenes.load("builtin:sphere-diffuse").with_overrides({"environment.rotation_deg": 40.0})
     for order in (2, 4):
@@ -57,8 +57,8 @@ def test_prt_at_the_vertices_is_sh_irradiance_to_float_precision():
         if order == 2:
             want = irradiance_from_sh(coeffs, scene.objects[0].mesh.normals.astype(np.float64))
         else:
-            from realtime.sh_orders import irradiance_weights
-            from scenes.shbasis import sh_basis
+            from realtime.engine.sh_orders import irradiance_weights
+            from scenes.environment.shbasis import sh_basis
 
             want = sh_basis(scene.objects[0].mesh.normals.astype(np.float64), order) @ irradiance_weights(coeffs)
         np.testing.assert_allclose(e_prt, want, rtol=1e-5, atol=1e-6 * np.abs(want).max())

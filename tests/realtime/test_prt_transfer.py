@@ -1,4 +1,4 @@
-"""Diffuse precomputed radiance transfer, numpy + Embree half (realtime/prt_transfer.py).
+"""Diffuse precomputed radiance transfer, numpy + Embree half (realtime/techniques/prt/prt_transfer.py).
 
 Each expectation comes from somewhere else than the code under test: Gauss-Legendre quadrature of the
 defining integrals (in a frame of the test's own), the geometry of a half-space occluder, the
@@ -15,10 +15,10 @@ import pytest
 import trimesh
 from numpy.polynomial import legendre
 
-from groundtruth.cache import CacheWarning
-from realtime import prt_transfer as prt
-from realtime.prt_transfer import TransferObject, cached_transfer, transfer
-from scenes.shbasis import count, sh_basis
+from groundtruth.pathtracer.reference_cache import CacheWarning
+from realtime.techniques.prt import prt_transfer as prt
+from realtime.techniques.prt.prt_transfer import TransferObject, cached_transfer, transfer
+from scenes.environment.shbasis import count, sh_basis
 
 ORDERS = [2, 3, 4]
 

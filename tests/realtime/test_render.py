@@ -12,8 +12,9 @@ import pytest
 
 import realtime
 import scenes
-from realtime import sh
-from scenes import cubemap, envmap, tonemap
+from realtime.engine import sh
+from scenes.environment import cubemap, envmap
+from scenes.model import tonemap
 
 pytestmark = pytest.mark.gl
 
@@ -133,7 +134,7 @@ def test_timings_and_auto_level():
 
 
 def test_display_pass_equals_numpy_tonemap(rng):
-    from realtime.display import tonemap_gpu
+    from realtime.engine.display import tonemap_gpu
 
     rgb = (10.0 ** rng.uniform(-4, 3, size=(16, 24, 3))).astype(np.float32)
     rgb[0, 0] = 0.0

@@ -7,10 +7,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from realtime import sh
-from scenes import cubemap, environments, envmap
-from scenes.directions import uv_to_direction
-from scenes.shbasis import sh9
+from realtime.engine import sh
+from scenes.environment import cubemap, environments, envmap
+from scenes.environment.directions import uv_to_direction
+from scenes.environment.shbasis import sh9
 
 # Ramamoorthi & Hanrahan 2001, Uffizi probe, their frame (shared/data/probes/README.md)
 RH_UFFIZI = np.array([
@@ -34,7 +34,7 @@ def test_uffizi_matches_published_coefficients(monkeypatch):
 
 def test_mitsuba_rows_integrate_what_mitsuba_shows():
     # project_equirect(rows="mitsuba") is the integral of the radiance Mitsuba's lookup returns:
-    # compare with a fine midpoint quadrature over scenes.envmap.lookup (an independent path)
+    # compare with a fine midpoint quadrature over scenes.environment.envmap.lookup (an independent path)
     env = environments.builtin("uffizi")
     h, w = 512, 1024
     v = (np.arange(h) + 0.5) / h
@@ -78,7 +78,7 @@ def smooth_env(d: np.ndarray) -> np.ndarray:
 @settings(max_examples=20, deadline=None)
 @given(st.floats(-np.pi, np.pi), st.floats(-np.pi, np.pi), st.floats(-np.pi, np.pi))
 def test_band_energy_is_rotation_invariant(a, b, c):
-    from scenes.directions import rotation_xyz
+    from scenes.environment.directions import rotation_xyz
 
     R = rotation_xyz(np.degrees([a, b, c]))
     d = cubemap.texel_directions(64)

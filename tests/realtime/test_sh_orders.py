@@ -14,11 +14,12 @@ import numpy as np
 import pytest
 from numpy.polynomial import legendre
 
-from realtime import deringing, sh
-from realtime.sh_orders import irradiance_weights
-from scenes import cubemap, environments, envmap, shbasis
-from scenes.directions import equirect_directions, rotation_xyz
-from scenes.shbasis import COSINE_BAND_FACTORS, band_of, glsl_defines, sh9, sh_basis
+from realtime.engine import sh
+from realtime.engine.sh_orders import irradiance_weights
+from realtime.techniques.sh import deringing
+from scenes.environment import cubemap, environments, envmap, shbasis
+from scenes.environment.directions import equirect_directions, rotation_xyz
+from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, glsl_defines, sh9, sh_basis
 
 PROBE_DIR = Path(__file__).resolve().parents[2] / "scenes" / "data" / "envs"
 PROBES = ["uffizi", "ennis", "pisa", "wells"]
@@ -272,7 +273,7 @@ def test_constant_environment_gives_pi_at_every_order():
 
 @pytest.mark.parametrize("probe", PROBES)
 def test_order_4_approximates_the_exact_irradiance_of_a_probe_better(probe):
-    from groundtruth import quadrature
+    from groundtruth.exact import quadrature
 
     env = envmap.read(PROBE_DIR / f"{probe}.hdr")
     n = deringing.fibonacci_sphere(400)

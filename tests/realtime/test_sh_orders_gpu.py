@@ -5,13 +5,14 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from realtime import deringing, sh
-from realtime.context import get_context
-from realtime.gpu import EnvironmentFilter, groups, shader_text
-from realtime.levels import level_of
-from realtime.sh_orders import ShProjector, irradiance_weights
-from scenes import environments
-from scenes.shbasis import count, glsl_defines, sh_basis
+from realtime.engine import sh
+from realtime.engine.context import get_context
+from realtime.engine.gpu import EnvironmentFilter, groups, shader_text
+from realtime.engine.levels import level_of
+from realtime.engine.sh_orders import ShProjector, irradiance_weights
+from realtime.techniques.sh import deringing
+from scenes.environment import environments
+from scenes.environment.shbasis import count, glsl_defines, sh_basis
 
 pytestmark = pytest.mark.gl
 

@@ -6,8 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from realtime.shadow_maps import light_matrices
-from scenes import light_array
+from realtime.techniques.shadow_maps.shadow_maps import light_matrices
+from scenes.environment import light_array
 
 
 @pytest.mark.parametrize("count", [4, 42, 642])

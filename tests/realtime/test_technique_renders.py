@@ -3,7 +3,7 @@
 - A constant environment of radiance 1 must give exactly kd (diffuse) and ks (glossy) for every
   technique and parameter: any normalisation slip shows here.
 - `irradiance_map` under a rotated probe against the exact irradiance at the analytic normals
-  (groundtruth.quadrature's brute-force cell sum, numpy, nothing shared with the GPU path).
+  (groundtruth.exact.quadrature's brute-force cell sum, numpy, nothing shared with the GPU path).
 - SH order 4 is closer to that exact irradiance than order 2, and order 3 equals order 2
   (Ramamoorthi–Hanrahan: A_3 = 0).
 """
@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 
 import realtime
-from groundtruth import quadrature
+from groundtruth.exact import quadrature
 
 from .test_render import SIZE, analytic_sphere, small
 
@@ -55,7 +55,7 @@ def exact_irradiance():
     n, _, interior = analytic_sphere(scene)
     grid = quadrature.cell_grid(scene.environment.radiance(), quadrature.DIFFUSE_WIDTH)
     # the quadrature works in the map's frame: turn the world normals back by the rotation
-    from scenes.directions import rotation_y
+    from scenes.environment.directions import rotation_y
 
     n_env = n @ rotation_y(30.0)
     e = math.pi * quadrature.irradiance(grid, n_env.reshape(-1, 3)).reshape(n.shape)

@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 
 import scenes
-from realtime import technique
-from realtime.parameterizations import STORES
+from realtime.engine import technique
+from realtime.engine.environment_maps import STORES
 from scenes import SceneError
-from scenes.scene import NOT_IMPLEMENTED, SCHEMA
+from scenes.model.scene import NOT_IMPLEMENTED, SCHEMA
 
 CHOICE_KEYS = ("diffuse", "glossy", "occlusion", "interreflection", "parameterization")
 
@@ -32,7 +32,7 @@ def test_every_choice_is_a_technique_or_refused_as_not_implemented(key):
 def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
     # every value is built today (NOT_IMPLEMENTED is empty); the refusal stays for the next technique a
     # scene key names before realtime/ has it: mark a built one and check that it is refused, not ignored
-    import scenes.scene as scene_module
+    import scenes.model.scene as scene_module
 
     monkeypatch.setattr(scene_module, "NOT_IMPLEMENTED", frozenset({("diffuse", "irradiance_map")}))
     with pytest.raises(SceneError) as err:

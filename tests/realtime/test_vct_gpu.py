@@ -1,4 +1,4 @@
-"""Voxel cone tracing on the GPU (realtime/vct.py), against expectations found independently:
+"""Voxel cone tracing on the GPU (realtime/techniques/vct/vct.py), against expectations found independently:
 
 - voxelisation: a sphere's occupied voxels lie in its analytic shell and number between its surface
   area over a voxel face and the surface-voxel bound; an axis-aligned plane fills exactly one layer;
@@ -24,20 +24,20 @@ import pytest
 
 import realtime
 import scenes
-from realtime import vct_math
+from realtime.techniques.vct import vct_math
 
 pytestmark = pytest.mark.gl
 
 
 @pytest.fixture(scope="module")
 def ctx():
-    from realtime.context import get_context
+    from realtime.engine.context import get_context
 
     return get_context()
 
 
 def sh_of(ctx, scene):
-    from realtime.parameterizations import environment_store
+    from realtime.engine.environment_maps import environment_store
 
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)
@@ -47,7 +47,7 @@ def sh_of(ctx, scene):
 
 
 def voxels(ctx, objects, res, cascades=1, bounces=1, grid=None, env=None):
-    from realtime.vct import VoxelScene
+    from realtime.techniques.vct.vct import VoxelScene
 
     vs = VoxelScene(ctx, objects, res, cascades, 6, 0.5, bounces=bounces, grid=grid)
     if env is not None:

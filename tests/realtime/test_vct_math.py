@@ -1,5 +1,5 @@
-"""The numpy half of voxel cone tracing (realtime/vct_math.py), by hand, without GL; and the
-[realtime.vct] table's checks (scenes/scene.py)."""
+"""The numpy half of voxel cone tracing (realtime/techniques/vct/vct_math.py), by hand, without GL; and the
+[realtime.vct] table's checks (scenes/model/scene.py)."""
 
 from __future__ import annotations
 
@@ -9,8 +9,9 @@ import numpy as np
 import pytest
 
 import scenes
-from realtime import technique, vct_math
-from scenes.scene import SceneError
+from realtime.engine import technique
+from realtime.techniques.vct import vct_math
+from scenes.model.scene import SceneError
 
 
 @pytest.mark.parametrize("count", [4, 6, 9])

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import cubemap
+from scenes.environment import cubemap
 
 S3 = 1 / np.sqrt(3)
 # Hand-derived from the OpenGL specification's cube-map table, per face:

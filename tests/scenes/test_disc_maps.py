@@ -15,8 +15,8 @@ import math
 import numpy as np
 import pytest
 
-from scenes import cubemap, discmap, paraboloid, spheremap
-from scenes.camera import Camera
+from scenes.environment import cubemap, discmap, paraboloid, spheremap
+from scenes.model.camera import Camera
 
 MAPS = [paraboloid, spheremap]
 

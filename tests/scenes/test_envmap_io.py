@@ -5,7 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import EnvMapError, envmap, imageio
+from scenes import EnvMapError
+from scenes.environment import envmap
+from scenes.storage import imageio
 
 
 @pytest.fixture

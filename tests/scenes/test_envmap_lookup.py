@@ -1,12 +1,12 @@
-"""`scenes.envmap.lookup` reproduces Mitsuba's `envmap` emitter (design.md section 2) to 1e-5."""
+"""`scenes.environment.envmap.lookup` reproduces Mitsuba's `envmap` emitter (design.md section 2) to 1e-5."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from scenes import envmap
-from scenes.directions import direction_to_uv, equirect_directions, uv_to_direction
+from scenes.environment import envmap
+from scenes.environment.directions import direction_to_uv, equirect_directions, uv_to_direction
 
 pytestmark = pytest.mark.mitsuba
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import envmap
-from scenes.directions import equirect_solid_angles
+from scenes.environment import envmap
+from scenes.environment.directions import equirect_solid_angles
 
 
 def test_the_poles_read_the_first_and_last_rows():

@@ -1,4 +1,4 @@
-"""The light array's math (scenes/light_array.py) against independent expectations.
+"""The light array's math (scenes/environment/light_array.py) against independent expectations.
 
 - Powers: the lights' powers sum to the map's integral (the band-area quadrature, 4 pi for radiance 1)
   for every count of both placements, on random high-dynamic-range maps.
@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import light_array
-from scenes.directions import equirect_directions, equirect_solid_angles
+from scenes.environment import light_array
+from scenes.environment.directions import equirect_directions, equirect_solid_angles
 
 
 def random_map(seed: int, h: int = 32, w: int = 64) -> np.ndarray:

@@ -14,8 +14,9 @@ import warnings
 import numpy as np
 import pytest
 
-from experiments import hostile
-from scenes import MeshError, meshes
+from experiments.paper import e06_hostile_cases as hostile
+from scenes import MeshError
+from scenes.geometry import meshes
 
 # a unit cube: 8 corners at +-0.5, 12 triangles wound counter-clockwise seen from outside
 CORNERS = np.array([[x, y, z] for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)])

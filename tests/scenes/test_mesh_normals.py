@@ -10,8 +10,9 @@ import numpy as np
 import pytest
 
 import scenes
-from experiments import hostile
-from scenes import MeshError, SceneError, meshes
+from experiments.paper import e06_hostile_cases as hostile
+from scenes import MeshError, SceneError
+from scenes.geometry import meshes
 from tests.helpers import sphere_scene_text, write_scene
 
 AXES = np.concatenate([np.eye(3), -np.eye(3)])
@@ -207,7 +208,7 @@ def test_other_mesh_formats_are_refused_with_the_list(tmp_path, suffix):
 @pytest.mark.mitsuba
 def test_both_renderers_get_the_same_normals(tmp_path, mi, cube_obj):
     """The reference's mi.Mesh holds exactly the vertices, normals and faces the real-time side draws."""
-    from groundtruth import mitsuba_scene
+    from groundtruth.pathtracer import mitsuba_scene
 
     s = scenes.load(scene_with(tmp_path, "cube.obj", 'normals = "smooth"\ncrease_deg = 45.0'))
     mesh = s.objects[0].mesh

@@ -7,7 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from scenes import MeshError, meshes
+from scenes import MeshError
+from scenes.geometry import meshes
 
 DATA = Path(__file__).resolve().parents[2] / "scenes" / "data" / "meshes"
 

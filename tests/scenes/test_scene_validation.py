@@ -121,7 +121,7 @@ def test_defaults_and_name_from_stem(tmp_path):
 
 
 def test_env_path_relative_to_scene_file(tmp_path):
-    from scenes import environments, envmap
+    from scenes.environment import environments, envmap
 
     sub = tmp_path / "maps"
     sub.mkdir()
@@ -150,7 +150,7 @@ def test_overrides_convert_types_and_revalidate():
 
 
 def test_override_path_is_relative_to_cwd(tmp_path, monkeypatch):
-    from scenes import environments, envmap
+    from scenes.environment import environments, envmap
 
     envmap.write(tmp_path / "c.exr", environments.builtin("constant"))
     monkeypatch.chdir(tmp_path)

@@ -1,11 +1,11 @@
-"""scenes.shbasis.sh_basis: the orders it takes, against the constants of design.md section 3 (eq. 8)."""
+"""scenes.environment.shbasis.sh_basis: the orders it takes, against the constants of design.md section 3 (eq. 8)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
-from scenes import shbasis
+from scenes.environment import shbasis
 
 
 def test_order_zero_is_the_constant_and_order_two_is_eq_8():

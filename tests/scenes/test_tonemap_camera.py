@@ -5,8 +5,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from scenes import environments, tonemap
-from scenes.camera import Camera
+from scenes.environment import environments
+from scenes.model import tonemap
+from scenes.model.camera import Camera
 
 
 def test_reinhard_hand_values():
@@ -41,7 +42,7 @@ def test_srgb_clamps_and_quantises():
 
 
 def test_luminance_weights_and_adaptation_of_a_coloured_map():
-    from scenes.directions import luminance
+    from scenes.environment.directions import luminance
 
     # Rec. 709 / sRGB luminance: 0.2126 R + 0.7152 G + 0.0722 B
     np.testing.assert_allclose(luminance(np.eye(3)), [0.2126, 0.7152, 0.0722], rtol=1e-12)

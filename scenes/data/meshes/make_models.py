@@ -21,9 +21,9 @@ import numpy as np
 import trimesh
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parents[2]))  # the repository root, for scenes.meshes
+sys.path.insert(0, str(HERE.parents[2]))  # the repository root, for scenes.geometry.meshes
 
-from scenes import meshes  # noqa: E402
+from scenes.geometry import meshes  # noqa: E402
 
 SECTIONS = 64
 

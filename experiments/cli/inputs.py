@@ -1,0 +1,74 @@
+"""Command-line inputs shared by the `iblcheck` subcommands: usage errors, `--set`, lists, scenes."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from scenes import InputError
+
+
+class UsageError(InputError):
+    """Bad command-line usage (exit 2)."""
+
+
+def parse_sets(items: list[str] | None) -> dict[str, str]:
+    """`--set K=V` pairs -> {K: V}; values are parsed as TOML literals by Scene.with_overrides."""
+    out = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key:
+            raise UsageError(f"--set {item!r}: expected KEY=VALUE, e.g. --set realtime.lod_bias=2")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
+    import scenes
+
+    scene = scenes.load(spec)
+    overrides = parse_sets(sets)
+    if sanitize:
+        overrides["environment.sanitize"] = True
+    return scene.with_overrides(overrides) if overrides else scene
+
+
+def parse_axis(item: str) -> tuple[str, list[Any]]:
+    """`--axis KEY=V1,V2,...` -> (KEY, [V1, V2, ...]); values are TOML literals (2, 0.5, "box" or box,
+    [0, 0, 4]: commas inside brackets do not split)."""
+    from scenes.model.scene import parse_literal
+
+    key, sep, values = item.partition("=")
+    key = key.strip()
+    if not sep or not key or not values.strip():
+        raise UsageError(f"--axis {item!r}: expected KEY=V1,V2,..., e.g. --axis realtime.glossy=box,prefiltered")
+    out = [parse_literal(v.strip()) for v in split_top_level(values) if v.strip()]
+    return key, out
+
+
+def split_top_level(text: str) -> list[str]:
+    """Split at commas outside brackets and quotes: '[0,0,4],[0,0,6]' -> ['[0,0,4]', '[0,0,6]']."""
+    parts, depth, quote, start = [], 0, "", 0
+    for i, ch in enumerate(text):
+        if quote:
+            quote = "" if ch == quote else quote
+        elif ch in "\"'":
+            quote = ch
+        elif ch in "[{":
+            depth += 1
+        elif ch in "]}":
+            depth -= 1
+        elif ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return parts
+
+
+def parse_list(text: str | None, kind: type, flag: str) -> list | None:
+    """'8,16,32' -> [8, 16, 32]; None stays None."""
+    if text is None:
+        return None
+    try:
+        return [kind(x.strip()) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise UsageError(f"{flag} {text!r}: expected a comma-separated list of {kind.__name__} values") from None

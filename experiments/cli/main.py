@@ -1,0 +1,339 @@
+"""The `iblcheck` command line (design.md section 6).
+
+Exit codes (issue 11: each keeps one meaning, so a crashed CI gate never reads as a failed one):
+
+    0    success
+    1    a gate failed (only ever that)
+    2    bad input, usage or an unusable output path: one `error: ...` line on stderr, no traceback
+    3    the machine lacks something (OpenGL, a Mitsuba variant, memory): a line saying what
+    4    an internal error (a bug): one `error: internal error ...` line; `--debug` adds the traceback
+    130  interrupted (Ctrl-C): a sweep or paper run resumes where it stopped when rerun
+
+Every line printed about user input goes through experiments/publish/text.py (no control characters,
+bounded length).
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import traceback
+import warnings
+
+from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
+from experiments.publish.text import one_line
+from scenes import InputError, MissingCapability
+
+EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
+
+
+class _Parser(argparse.ArgumentParser):
+    def error(self, message: str):  # argparse's own errors: one line, exit 2
+        print(f"error: {one_line(message)}", file=sys.stderr)
+        raise SystemExit(EXIT_BAD_INPUT)
+
+
+def threshold(key: str):
+    """An argparse type for a gate threshold: a finite number in the range of the scene's [gate] key."""
+    from scenes.model.scene import SCHEMA
+
+    check, allowed = SCHEMA["gate"][key]
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or check(value) is None:
+            raise argparse.ArgumentTypeError(f"{text!r}: must be {allowed}")
+        return value
+
+    return parse
+
+
+def tolerance(flag: str, positive: bool = False):
+    """An argparse type for a baseline tolerance: a finite number >= 0 (> 0 with `positive`)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = None
+        if value is None or not math.isfinite(value) or value < 0 or (positive and value == 0):
+            raise argparse.ArgumentTypeError(f"{text!r}: must be a finite number {'> 0' if positive else '>= 0'}")
+        return value
+
+    return parse
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = _Parser(prog="iblcheck", description="Validate real-time environment lighting against path-traced references.",
+                epilog="exit codes: 0 success, 1 a gate failed, 2 bad input or output path, 3 the machine lacks "
+                       "something, 4 internal error (--debug shows the traceback), 130 interrupted")
+    p.add_argument("--debug", action="store_true", help="on an internal error, print the traceback (any position)")
+    sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
+
+    r = sub.add_parser("render", help="render one scene with one renderer, write EXR + PNG")
+    r.add_argument("scene", help="scene file or builtin:NAME")
+    r.add_argument("--renderer", choices=["realtime", "reference", "quadrature"], default="realtime")
+    r.add_argument("--set", action="append", metavar="K=V", help="override a scene key (repeatable)")
+    r.add_argument("-o", "--out", default=None, help="output .exr path (a .png is written beside it); default: "
+                   "SLUG-RENDERER.exr in the working directory, SLUG the scene name's file-safe form")
+    r.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
+    r.set_defaults(func=_cmd_render)
+
+    c = sub.add_parser("compare", help="real-time vs reference metrics for one scene")
+    c.add_argument("scene")
+    c.add_argument("--set", action="append", metavar="K=V")
+    c.add_argument("--json", action="store_true")
+    c.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
+    c.set_defaults(func=_cmd_compare)
+
+    s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
+    s.add_argument("scenes", nargs="+")
+    s.add_argument("--face-sizes", default="8,16,32,64")
+    s.add_argument("--lod-biases", default="-1,0,1,2")
+    s.add_argument("--exponents", help="comma-separated Phong exponents (glossy scenes only)")
+    s.add_argument("--f0s", help="comma-separated f0 values (blend scenes only)")
+    s.add_argument("--envs", help="comma-separated environments (builtin:NAME or files)")
+    s.add_argument("--lod-mappings", help="comma-separated: paper, mcguire (glossy scenes only)")
+    s.add_argument("--axis", action="append", metavar="KEY=V1,V2", default=[],
+                   help="sweep any scene key, e.g. --axis realtime.glossy=box,prefiltered (repeatable); a "
+                        "technique's own keys vary only where that technique runs")
+    s.add_argument("--technique-axes", action="store_true",
+                   help="also sweep every technique of each scene's effects with the parameters it declares worth "
+                        "sweeping (SH order and window, irradiance-map sizes, LOD bias and mapping, samples)")
+    s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
+    s.add_argument("--out", default="reports/sweep")
+    add_cluster_options(s)
+    s.set_defaults(func=_cmd_sweep)
+
+    g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
+    g.add_argument("scenes", nargs="+")
+    g.add_argument("--min-psnr", type=threshold("min_psnr"))
+    g.add_argument("--min-ssim", type=threshold("min_ssim"))
+    g.add_argument("--max-flip", type=threshold("max_flip"))
+    g.add_argument("--junit", help="write JUnit XML here (one test case per scene)")
+    g.add_argument("--markdown", metavar="FILE", help="write a short Markdown table here (for a pull-request comment)")
+    g.add_argument("--baseline", metavar="FILE", help="fail when a scene got worse than its record in FILE "
+                   "(beyond the reference's noise; see --tolerance-*) or is not in it")
+    g.add_argument("--write-baseline", metavar="FILE", help="record every scene's metrics, timings and identity "
+                   "in FILE (JSON)")
+    g.add_argument("--tolerance-db", type=tolerance("--tolerance-db"), metavar="DB",
+                   help="with --baseline: the PSNR drop allowed, instead of the noise-aware rule")
+    g.add_argument("--tolerance-ssim", type=tolerance("--tolerance-ssim"), metavar="X",
+                   help="with --baseline: the SSIM drop allowed, instead of the noise-aware rule")
+    g.add_argument("--tolerance-flip", type=tolerance("--tolerance-flip"), metavar="X",
+                   help="with --baseline: the FLIP rise allowed, instead of the noise-aware rule")
+    g.add_argument("--max-time-ratio", type=tolerance("--max-time-ratio", positive=True), metavar="R",
+                   help="with --baseline: fail when the frame time exceeds R times the baseline's "
+                        "(reported, never failed, without it)")
+    g.add_argument("--set", action="append", metavar="K=V")
+    g.set_defaults(func=_cmd_gate)
+
+    rep = sub.add_parser("report", help="regenerate DIR/index.html from DIR/results.jsonl")
+    rep.add_argument("dir")
+    rep.set_defaults(func=_cmd_report)
+
+    pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)")
+    pa.add_argument("--out", default="reports/paper")
+    pa.add_argument("--quick", action="store_true")
+    add_cluster_options(pa)
+    pa.set_defaults(func=_cmd_paper)
+    return p
+
+
+def _workers(text: str) -> int:
+    try:
+        n = int(text)
+    except ValueError:
+        n = 0
+    if n < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: must be a whole number of worker processes, at least 1")
+    return n
+
+
+def add_cluster_options(parser: argparse.ArgumentParser) -> None:
+    """`--workers N` | `--scheduler ADDRESS`: references on a Dask cluster (experiments/runs/dask_cluster.py)."""
+    group = parser.add_mutually_exclusive_group()
+    group.add_argument("--workers", type=_workers, metavar="N",
+                       help="render the references on a local Dask cluster of N worker processes (real-time "
+                            "renders and their frame times stay in this process)")
+    group.add_argument("--scheduler", metavar="ADDRESS",
+                       help="render the references on a running Dask cluster (`dask scheduler`, `dask worker`), "
+                            "e.g. tcp://10.0.0.5:8786")
+
+
+def _cmd_render(args: argparse.Namespace) -> int:
+    from experiments.cli import render_cmd
+
+    return render_cmd.run(args)
+
+
+def _cmd_compare(args: argparse.Namespace) -> int:
+    import json
+
+    from experiments.measure import comparison
+    from experiments.publish import outputs
+    from experiments.runs import gate
+
+    scene = load_scene(args.scene, args.set, args.sanitize)
+    with outputs.progress("compare", 4) as step:
+        result = gate.measure(scene, step, noise=False).metrics
+    if result["pixels"] == 0:
+        print(f"warning: {one_line(scene.name)}: no pixel is covered in both images (is the object outside the "
+              "view?); the image metrics are undefined (null)", file=sys.stderr)
+    print(json.dumps(result, allow_nan=False) if args.json else comparison.format_table([result]))
+    return EXIT_OK
+
+
+def _cmd_sweep(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from experiments.runs import sweep
+
+    axes = sweep.Axes(face_sizes=parse_list(args.face_sizes, int, "--face-sizes"),
+                      lod_biases=parse_list(args.lod_biases, float, "--lod-biases"),
+                      exponents=parse_list(args.exponents, float, "--exponents"),
+                      f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
+                      lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),
+                      extra=[parse_axis(a) for a in args.axis], technique_axes=args.technique_axes)
+    rows = sweep.run(args.scenes, axes, Path(args.out), parse_sets(args.set), workers=args.workers,
+                     scheduler=args.scheduler)
+    print(one_line(f"{len(rows)} rows in {Path(args.out) / sweep.RESULTS}; report: {Path(args.out) / 'index.html'}"))
+    return EXIT_OK
+
+
+def _cmd_gate(args: argparse.Namespace) -> int:
+    from experiments.publish import outputs
+    from experiments.runs import gate
+
+    cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
+    tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
+                  "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
+    given = [f"--{k.replace('_', '-')}" for k, v in tolerances.items() if v is not None]
+    if given and not args.baseline:
+        raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
+    with outputs.Outputs() as plan:
+        baseline = gate.read_baseline(args.baseline) if args.baseline else None
+        loaded = gate.load(args.scenes, cli, parse_sets(args.set),
+                           thresholds_required=not (args.baseline or args.write_baseline))
+        junit = plan.file(args.junit, "--junit") if args.junit else None
+        md = plan.file(args.markdown, "--markdown") if args.markdown else None
+        record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
+        with outputs.progress("gate", 4 * len(loaded)) as step:
+            results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline))
+        for line in gate.warning_lines(results, baseline):
+            print(line, file=sys.stderr)
+        print(gate.format_table(results))
+        if junit:
+            gate.write_junit(junit, results)
+        if md:
+            gate.write_markdown(md, results, baseline)
+        if record:
+            gate.write_baseline(record, results)
+    return EXIT_OK if all(r.passed for r in results) else EXIT_GATE_FAILED
+
+
+def _cmd_report(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from experiments.measure.results import folder_lock
+    from experiments.publish import outputs, report
+    from experiments.runs import sweep
+
+    folder = Path(args.dir)
+    if not (folder / sweep.RESULTS).is_file():
+        raise UsageError(f"{folder / sweep.RESULTS}: not found (run `iblcheck sweep --out {folder}` first)")
+    with outputs.Outputs() as plan, folder_lock(plan.folder(folder, "report")):
+        for name in ("index.html", "summary.md"):
+            plan.file(folder / name, "report")
+        plan.folder(folder / "figures", "report")
+        print(one_line(report.build(folder)))
+    return EXIT_OK
+
+
+def _cmd_paper(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from experiments.paper import suite as paper
+
+    print(one_line(paper.run(Path(args.out), quick=args.quick, workers=args.workers, scheduler=args.scheduler)))
+    return EXIT_OK
+
+
+#: options whose value is a list that may start with a minus sign (`--lod-biases -1,0,1`)
+LIST_OPTIONS = ("--face-sizes", "--lod-biases", "--exponents", "--f0s", "--envs", "--lod-mappings", "--axis",
+                "--set", "--min-psnr", "--min-ssim", "--max-flip", "--tolerance-db", "--tolerance-ssim",
+                "--tolerance-flip", "--max-time-ratio")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """argparse takes `-1,0,1` for an option; glue such a value to its option (`--lod-biases=-1,0,1`)."""
+    out, i = [], 0
+    while i < len(argv):
+        a = argv[i]
+        if a in LIST_OPTIONS and i + 1 < len(argv) and argv[i + 1].startswith("-") and len(argv[i + 1]) > 1 \
+                and (argv[i + 1][1].isdigit() or argv[i + 1][1] == "."):
+            out.append(f"{a}={argv[i + 1]}")
+            i += 2
+            continue
+        out.append(a)
+        i += 1
+    return out
+
+
+def _error(text: str) -> None:
+    print(f"error: {one_line(text)}", file=sys.stderr)
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    debug = "--debug" in argv
+    argv = [a for a in argv if a != "--debug"]
+    parser = build_parser()
+    try:
+        args = parser.parse_args(join_negative_values(argv))
+    except SystemExit as exc:  # argparse: --help (0) or a usage error (2, already printed)
+        return int(exc.code or 0)
+    warnings.simplefilter("default")
+    warnings.showwarning = lambda msg, cat, *a, **k: print(f"warning: {one_line(msg)}", file=sys.stderr)
+    return run_command(args, debug)
+
+
+def run_command(args: argparse.Namespace, debug: bool = False) -> int:
+    """Run a parsed command, mapping every way it can end to its exit code (see the module docstring)."""
+    try:
+        return int(args.func(args) or 0)
+    except InputError as exc:
+        _error(str(exc))
+        return EXIT_BAD_INPUT
+    except MissingCapability as exc:
+        _error(f"{exc}" + (f"; {exc.hint}" if exc.hint else ""))
+        return EXIT_MISSING
+    except MemoryError:
+        _error("out of memory; use smaller images (camera.width, camera.height), maps or meshes")
+        return EXIT_MISSING
+    except KeyboardInterrupt:
+        _error("interrupted; rerun the same command to resume (finished rows are kept)")
+        return EXIT_INTERRUPTED
+    except OSError as exc:
+        if exc.filename is None:
+            return _internal(exc, debug)
+        _error(f"{exc.filename}: {exc.strerror or exc}")
+        return EXIT_BAD_INPUT
+    except Exception as exc:  # a bug: its own exit code, never 1 (a failed gate)
+        return _internal(exc, debug)
+
+
+def _internal(exc: BaseException, debug: bool) -> int:
+    if debug:
+        traceback.print_exception(exc, file=sys.stderr)
+    _error(f"internal error ({type(exc).__name__}: {exc})" + ("" if debug else "; rerun with --debug for the "
+                                                               "traceback and report it"))
+    return EXIT_INTERNAL
+
+
+if __name__ == "__main__":
+    sys.exit(main())

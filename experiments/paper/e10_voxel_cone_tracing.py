@@ -1,0 +1,318 @@
+"""E10 of the paper suite: what interreflection costs in real time, by cascaded voxel cone tracing (issue 14).
+
+On cornell-open, bowl-diffuse and torus-phong, against the same path-traced references, `psnr_unbiased`
+against the frame's milliseconds for
+(a) direct only (the paper), (b) + VCT occlusion, (c) + VCT occlusion + interreflection,
+over `[realtime.vct]` resolution x cascades x diffuse cones (QUICK: a subset that fits the time limit).
+Per configuration: the voxel memory (six RGBA16F faces with their mips, every cascade) against a single
+3D texture with the same finest voxel over the same extent; `trace` = the shading pass's ms minus the
+direct-only pass's (the cones run inside `draw`).
+
+At the best configuration of each scene: the reference at max_depth 2 (direct light with occlusion, no
+bounce), 3 (one bounce) and full depth, in linear radiance over the covered pixels: the indirect energy
+ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and how much of the error the first bounce explains.
+The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the irradiance the cones find
+just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from experiments.measure.results import ResultRow
+from experiments.publish.report import Section
+
+SCENES = (("cornell-open", "builtin:cornell-open"), ("bowl-diffuse", "builtin:bowl-diffuse"),
+          ("torus-phong", "builtin:torus-phong"))
+
+
+@dataclass(frozen=True)
+class E10Settings:
+    grid: tuple[tuple[int, int, int], ...]  # (resolution, cascades, diffuse cones)
+    frames: int
+    depths: tuple[int, ...]  # reference max_depth values for the energy split (full depth is the row's own)
+
+
+QUICK = E10Settings(grid=((32, 1, 6), (64, 1, 6), (32, 2, 6), (64, 2, 6), (64, 2, 4), (64, 2, 9)), frames=1,
+                    depths=(2, 3))
+# the subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 x 3 cascades takes
+# about 10 s a frame on llvmpipe): every resolution x cascades at the seed's 6 cones, and 4 and 9 cones at 64^3 x 2
+FULL = E10Settings(grid=tuple((r, c, 6) for r in (32, 64, 128) for c in (1, 2, 3)) + ((64, 2, 4), (64, 2, 9)),
+                   frames=3, depths=(2, 3))
+
+
+def vct_ov(resolution: int, cascades: int, cones: int, interreflection: bool) -> dict:
+    ov = {"realtime.occlusion": "vct", "realtime.vct.resolution": resolution, "realtime.vct.cascades": cascades,
+          "realtime.vct.diffuse_cones": cones}
+    if interreflection:
+        ov["realtime.interreflection"] = "vct"
+    return ov
+
+
+def configs(s: E10Settings) -> list[dict]:
+    return [{}] + [vct_ov(r, c, k, inter) for r, c, k in s.grid for inter in (False, True)]
+
+
+def count_steps(quick: bool) -> int:
+    s = QUICK if quick else FULL
+    return len(SCENES) * (len(configs(s)) + 2) + 1  # per scene: the curve, the rows, the energy split; the leak
+
+
+def frame_ms(r: ResultRow) -> float | None:
+    return r.realtime_ms.get("total")
+
+
+def mode(r: ResultRow) -> str:
+    t = r.techniques
+    if t.get("interreflection") == "vct":
+        return "occlusion + interreflection"
+    if t.get("occlusion") == "vct":
+        return "occlusion"
+    return "direct (paper)"
+
+
+def setting(r: ResultRow) -> tuple[int, int, int] | None:
+    ov = r.overrides
+    if "realtime.vct.resolution" not in ov:
+        return None
+    return (ov["realtime.vct.resolution"], ov["realtime.vct.cascades"], ov["realtime.vct.diffuse_cones"])
+
+
+def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
+    """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent)."""
+    import scenes
+    from realtime.techniques.vct import vct, vct_math
+
+    lo, hi = vct.scene_bounds(scenes.load(spec).objects)
+    g = vct_math.cascades_for(lo, hi, resolution, cascades)
+    return g.bytes_per_cascade(vct.BYTES_PER_VOXEL) * cascades, g.single_texture_bytes(vct.BYTES_PER_VOXEL)
+
+
+def mib(b: float) -> str:
+    return f"{b / 2**20:.1f}"
+
+
+def energy_split(suite, spec: str, best: dict, depths: tuple[int, ...]) -> dict:
+    """Linear radiance means over the pixels covered in every image: the real-time occlusion-only and
+    occlusion + interreflection images of the best setting, the path tracer at each max_depth and full."""
+    import warnings
+
+    import realtime
+    import scenes
+    from groundtruth.pathtracer import reference
+
+    base = {**suite.base(), "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
+    scene = scenes.load(spec).with_overrides(base)
+    occ_ov = {k: v for k, v in best.items() if k != "realtime.interreflection"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        rt_occ = realtime.render(scene.with_overrides(occ_ov))
+        rt_all = realtime.render(scene.with_overrides({**occ_ov, "realtime.interreflection": "vct"}))
+        rt_direct = realtime.render(scene)
+    refs = {d: reference.render(scene.with_overrides({"reference.integrator": "path", "reference.max_depth": d}))
+            for d in depths}
+    refs["full"] = reference.render(scene)
+    mask = rt_occ.mask & rt_all.mask & rt_direct.mask
+    for r in refs.values():
+        mask = mask & r.mask
+
+    def mean(img) -> float:
+        return float(img.rgb[mask].mean())
+
+    out = {"direct": mean(rt_direct), "occlusion": mean(rt_occ), "interreflection": mean(rt_all),
+           **{f"path_depth_{k}": mean(v) for k, v in refs.items()}}
+    lo, hi = min(depths), (3 if 3 in depths else max(depths))
+    ref_bounce = out[f"path_depth_{hi}"] - out[f"path_depth_{lo}"]
+    out["indirect_vct"] = out["interreflection"] - out["occlusion"]
+    out["indirect_path_one_bounce"] = ref_bounce
+    out["indirect_path_all"] = out["path_depth_full"] - out[f"path_depth_{lo}"]
+    out["indirect_ratio"] = out["indirect_vct"] / ref_bounce if abs(ref_bounce) > 1e-9 else None
+    out["occluded_ratio"] = out["occlusion"] / out[f"path_depth_{lo}"] if out[f"path_depth_{lo}"] > 0 else None
+    return out
+
+
+def thin_wall_leak(resolutions=(32, 64), cascades: int = 1) -> list[dict]:
+    """The thin-wall scene's leak: the irradiance the cones find (environment x visibility + gathered) on
+    the ground inside the closed box (walls of zero thickness: one voxel once voxelised; exactly 0 in the
+    path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe)."""
+    import scenes
+    from realtime.engine.context import get_context
+    from realtime.engine.environment_maps import environment_store
+    from realtime.techniques.vct.vct import VoxelScene
+
+    ctx = get_context()
+    scene = scenes.load("builtin:thin-wall")
+    xs = np.linspace(-0.3, 0.3, 4)
+    inside = np.array([[x, 0.0, z] for x in xs for z in xs])
+    ring = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
+    outside = np.stack([1.2 * np.cos(ring), np.zeros_like(ring), 1.2 * np.sin(ring)], -1)
+    up = np.array([0.0, 1.0, 0.0])
+    out = []
+    for res in resolutions:
+        env = environment_store(ctx, scene)
+        env.fill_base(scene.environment.rotation_deg)
+        env.build_chain(None)
+        env.project_sh(64)
+        vs = VoxelScene(ctx, scene.objects, res, cascades, 6, 0.5)
+        vs.update(None, env.sh_buffer)
+        _, M = env.read_sh()
+        n4 = np.append(up, 1.0)
+        sky = np.array([n4 @ M[c] @ n4 for c in range(3)])  # the unoccluded SH9 irradiance facing up
+        r_in = vs.probe(inside, np.tile(up, (len(inside), 1)))
+        r_out = vs.probe(outside, np.tile(up, (len(outside), 1)))
+        e_in = (sky * r_in[:, 3:4] + r_in[:, :3]).mean()
+        e_out = (sky * r_out[:, 3:4] + r_out[:, :3]).mean()
+        out.append({"resolution": res, "cascades": cascades, "voxel": vs.grid.voxel_size, "inside": float(e_in),
+                    "outside": float(e_out), "leak": float(e_in / max(e_out, 1e-12)),
+                    "visibility_inside": float(r_in[:, 3].mean()), "visibility_outside": float(r_out[:, 3].mean())})
+        vs.release()
+        env.release()
+    return out
+
+
+def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
+    """Render E10's rows through `suite.row` (resumable) and build its section."""
+    import scenes
+    from experiments.measure import convergence
+    from experiments.publish import report
+
+    s = QUICK if quick else FULL
+    timing = {"realtime.timing_frames": s.frames, "realtime.warmup_frames": 1}
+    per_scene: dict[str, tuple[list[ResultRow], list]] = {}
+    energy: dict[str, dict] = {}
+    for name, spec in SCENES:
+        scene = scenes.load(spec).with_overrides(suite.base())
+        curve = convergence.curve(scene, max_spp=suite.s.spp)
+        progress()
+        rows = [suite.row(spec, {**timing, **c}, "E10", curve=curve) for c in configs(s)]
+        per_scene[name] = (rows, curve)
+        b = best(rows, "occlusion + interreflection")
+        energy[name] = energy_split(suite, spec, b.overrides if b else vct_ov(64, 2, 6, True), s.depths) | {
+            "setting": setting(b) if b else None}
+        progress()
+    leak = thin_wall_leak()
+    progress()
+    figure, heat = "figures/e10_vct.png", "figures/e10_heat.png"
+    plot(per_scene, suite.out / figure)
+    plot_heat(per_scene, suite.out, suite.out / heat)
+    header = ["scene", "mode", "resolution", "cascades", "cones", "unbiased PSNR dB", "frame ms", "voxelize ms",
+              "mip ms", "trace ms", "voxel MiB", "single 3D texture MiB"]
+    table = []
+    for name, (rows, _) in per_scene.items():
+        spec = dict(SCENES)[name]
+        direct = next((r for r in rows if mode(r).startswith("direct")), None)
+        d_draw = direct.realtime_ms.get("draw") if direct else None
+        for r in rows:
+            st = setting(r)
+            mem = memory(spec, st[0], st[1]) if st else None
+            draw = r.realtime_ms.get("draw")
+            trace = None if (st is None or draw is None or d_draw is None) else draw - d_draw
+            table.append([name, mode(r), *(map(str, st) if st else ("-", "-", "-")),
+                          f2(r.psnr_unbiased) + (" (floor)" if r.psnr_unbiased_clamped else ""), f2(frame_ms(r)),
+                          f2(r.realtime_ms.get("voxelize")), f2(r.realtime_ms.get("mip")), f2(trace),
+                          mib(mem[0]) if mem else "-", mib(mem[1]) if mem else "-"])
+    e_header = ["scene", "best setting", "direct", "VCT occlusion", "VCT occl. + interr.", "path depth 2",
+                "path depth 3", "path full", "indirect VCT / path one bounce", "VCT occlusion / path depth 2"]
+    e_rows = [[name, "x".join(map(str, e["setting"])) if e["setting"] else "-", f4(e["direct"]), f4(e["occlusion"]),
+               f4(e["interreflection"]), f4(e["path_depth_2"]), f4(e.get("path_depth_3")), f4(e["path_depth_full"]),
+               f3(e["indirect_ratio"]), f3(e["occluded_ratio"])] for name, e in energy.items()]
+    l_header = ["resolution", "cascades", "voxel", "irradiance inside", "outside", "leak (inside / outside)",
+                "visibility inside", "visibility outside"]
+    l_rows = [[str(x["resolution"]), str(x["cascades"]), f"{x['voxel']:.4f}", f4(x["inside"]), f4(x["outside"]),
+               f"{100 * x['leak']:.2f} %", f3(x["visibility_inside"]), f3(x["visibility_outside"])] for x in leak]
+    findings = summarize(per_scene, energy, leak)
+    note = ("Frame ms: medians over the timed frames of every per-frame part: the environment (`filter`), the "
+            "voxelisation with the cone-traced injection (`voxelize`), the six-face mips (`mip`) and the shading "
+            "pass (`draw`), llvmpipe on 2 shared cores. Trace ms: the shading pass's ms minus the same scene's "
+            "direct-only pass (the cones run inside `draw`). Voxel MiB: six RGBA16F faces (48 bytes a voxel) with "
+            "their mip chains for every cascade, against one 3D texture with the finest voxel over the outermost "
+            "extent. Mean radiances are linear, over the pixels covered in every image; path depth 2 is direct "
+            "light with occlusion, depth 3 adds one bounce. The leak: the irradiance the diffuse cones find on the "
+            "ground inside a closed box with walls of zero thickness (one voxel once voxelised; the path tracer's "
+            "is 0) over the irradiance on the ground outside it.")
+    md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
+          + report.md_table(e_header, e_rows) + "\n\n" + report.md_table(l_header, l_rows) + "\n\n" + note)
+    blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E10"),
+              report.figure(heat, "E10 heat maps"), report.table(e_header, e_rows), report.table(l_header, l_rows),
+              report.paragraph(note)]
+    return Section("E10 what interreflection costs (voxel cone tracing)", blocks, md, [figure, heat])
+
+
+def f2(x) -> str:
+    return "-" if x is None else f"{x:.2f}"
+
+
+def f3(x) -> str:
+    return "-" if x is None else f"{x:.3f}"
+
+
+def f4(x) -> str:
+    return "-" if x is None else f"{x:.4f}"
+
+
+def best(rows: list[ResultRow], which: str) -> ResultRow | None:
+    ok = [r for r in rows if r.psnr_unbiased is not None and mode(r) == which]
+    return max(ok, key=lambda r: r.psnr_unbiased) if ok else None
+
+
+def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
+    out = []
+    for name, (rows, _) in per_scene.items():
+        parts = []
+        for which in ("direct (paper)", "occlusion", "occlusion + interreflection"):
+            b = best(rows, which)
+            if b is not None:
+                st = setting(b)
+                at = f" at {st[0]}^3 x {st[1]} cascades, {st[2]} cones" if st else ""
+                parts.append(f"{which} {b.psnr_unbiased:.2f} dB in {f2(frame_ms(b))} ms{at}")
+        out.append(f"{name}: " + "; ".join(parts) + ".")
+        e = energy.get(name)
+        if e:
+            out.append(f"{name}: indirect energy VCT / path one bounce = {f3(e['indirect_ratio'])} "
+                       f"(VCT {e['indirect_vct']:.4f}, path {e['indirect_path_one_bounce']:.4f}, all bounces "
+                       f"{e['indirect_path_all']:.4f}); VCT occlusion / path depth 2 = {f3(e['occluded_ratio'])}.")
+    for x in leak:
+        out.append(f"thin wall at {x['resolution']}^3 (voxel {x['voxel']:.4f}): {100 * x['leak']:.2f} % of the lit "
+                   f"side's irradiance leaks inside (target at most 1 %).")
+    return out
+
+
+def plot(per_scene: dict, path) -> None:
+    from experiments.publish import plots
+
+    plt = plots.pyplot()
+    n = len(per_scene)
+    fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
+    for ax, (name, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=True):
+        for k, which in enumerate(("direct (paper)", "occlusion", "occlusion + interreflection")):
+            sel = [r for r in rows if mode(r) == which and r.psnr_unbiased is not None and frame_ms(r)]
+            ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=22, marker="osD"[k], label=which)
+            for r in sel:
+                st = setting(r)
+                if st:
+                    ax.annotate(f"{st[0]}/{st[1]}/{st[2]}", (frame_ms(r), r.psnr_unbiased), fontsize=5)
+        plots.finish_accuracy_time_axes(ax, curve, name)
+    plots.save(fig, path)
+
+
+def plot_heat(per_scene: dict, root, path) -> None:
+    """Where VCT errs: the |realtime - reference| maps of direct only and each mode's best setting."""
+    from experiments.publish import plots
+
+    plt = plots.pyplot()
+    columns = ("direct (paper)", "occlusion", "occlusion + interreflection")
+    fig, axes = plt.subplots(len(per_scene), len(columns), figsize=(3.3 * len(columns), 3.1 * len(per_scene)),
+                             squeeze=False)
+    for i, (name, (rows, _)) in enumerate(per_scene.items()):
+        for j, which in enumerate(columns):
+            ax = axes[i, j]
+            ax.axis("off")
+            r = best(rows, which)
+            if r is None or "error" not in r.images:
+                continue
+            ax.imshow(plt.imread(root / r.images["error"]))
+            ax.set_title(f"{name}: {which}\n{r.psnr_unbiased:.1f} dB", fontsize=7)
+    plots.save(fig, path)

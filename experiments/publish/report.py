@@ -1,0 +1,211 @@
+"""`iblcheck report DIR`: DIR/index.html (one page) and DIR/summary.md from DIR/results.jsonl.
+
+The page holds, for every configuration, the real-time image, the reference, the error heat map
+and the FLIP map side by side; a sortable table of every metric; and the plots (also written as
+PNG files under DIR/figures): PSNR and SSIM against LOD bias per face size, PSNR against frame
+time with the Pareto front, filter and draw time against face size. Extra sections (the paper
+suite's experiments) come before them.
+
+Escaping (issue 11): every value reaches the page through the template with autoescape on; a
+section is data (`Section.blocks`: tables, paragraphs, lists, figures), never HTML. Image sources
+are local paths or inline PNGs only, and a Content-Security-Policy lets only the page's own sorting
+script run and nothing load from the network, so a hostile name shows as text and runs nothing.
+"""
+
+from __future__ import annotations
+
+import base64
+import hashlib
+import json
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from experiments.measure.results import ResultRow, store_in
+from experiments.publish import outputs, plots
+from experiments.publish.text import md_cell, visible
+
+#: the paper suite's sections, kept so that `iblcheck report` can rebuild its page
+SECTIONS = "experiments.json"
+COLUMNS = [("scene", True), ("techniques", True), ("face", False), ("material", True), ("N", False),
+           ("f0", False), ("env", True), ("PSNR dB", False), ("unbiased dB", False), ("floor dB", False),
+           ("SSIM", False), ("FLIP", False), ("relMSE", False), ("filter ms", False), ("draw ms", False),
+           ("total ms", False), ("precompute ms", False), ("unsimulated", True)]
+
+
+@dataclass
+class Section:
+    """One section of a report: a title, its content as data (`blocks`, rendered by the template
+    with autoescape), the same as Markdown (summary.md) and its figures."""
+
+    title: str
+    blocks: list[dict[str, Any]]  # made by table(), paragraph(), bullets(), figure()
+    markdown: str
+    figures: list[str] = field(default_factory=list)  # PNG paths relative to the report folder
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Section:
+        """A section saved in experiments.json. One saved before sections were data (it holds
+        `html`) is shown as its Markdown text: stored HTML is never put into a page."""
+        if "blocks" not in d:
+            return cls(str(d.get("title", "")), [preformatted(d.get("markdown", ""))], str(d.get("markdown", "")),
+                       list(d.get("figures", [])))
+        return cls(str(d["title"]), list(d["blocks"]), str(d["markdown"]), list(d.get("figures", [])))
+
+
+def table(header: list, rows: list[list]) -> dict:
+    return {"kind": "table", "header": [str(h) for h in header], "rows": [[str(c) for c in r] for r in rows]}
+
+
+def paragraph(text: str) -> dict:
+    return {"kind": "text", "text": str(text)}
+
+
+def preformatted(text: str) -> dict:
+    return {"kind": "pre", "text": str(text)}
+
+
+def bullets(items: list) -> dict:
+    return {"kind": "list", "items": [str(i) for i in items]}
+
+
+def figure(path: str, alt: str) -> dict:
+    return {"kind": "figure", "src": str(path), "alt": str(alt)}
+
+
+def md_block(markdown: str) -> str:
+    """A section's Markdown as summary.md holds it: no raw HTML (< and > as entities; md_table's cells
+    hold none already) and no control characters but newlines."""
+    return visible(markdown, keep="\n").replace("<", "&lt;").replace(">", "&gt;")
+
+
+def md_table(header: list, rows: list[list]) -> str:
+    """A Markdown table; every cell escaped (text.md_cell)."""
+    out = ["| " + " | ".join(md_cell(h) for h in header) + " |", "|" + "|".join("---" for _ in header) + "|"]
+    out += ["| " + " | ".join(md_cell(c) for c in r) + " |" for r in rows]
+    return "\n".join(out)
+
+
+_LOCAL = re.compile(r"^(?![a-zA-Z][a-zA-Z0-9+.-]*:)(?!/)(?!.*\.\.)[\w./-]+$")
+
+
+def local_src(path: object) -> str:
+    """An image source the page may load: a relative path inside the report folder, or ''."""
+    text = str(path or "")
+    return text if _LOCAL.match(text) else ""
+
+
+def fmt(value, spec: str) -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def env_name(env: str) -> str:
+    return env.split(":", 1)[1] if env.startswith("builtin:") else Path(env).name
+
+
+def table_cells(r: ResultRow) -> list[str]:
+    ms = r.realtime_ms
+    return [r.scene, r.technique_label, str(r.face_size), r.material, fmt(r.exponent, "g"), fmt(r.f0, "g"),
+            env_name(r.env), fmt(r.psnr, ".2f"), fmt(r.psnr_unbiased, ".2f"), fmt(r.noise_floor_psnr, ".2f"),
+            fmt(r.ssim, ".4f"), fmt(r.flip, ".4f"), fmt(r.rel_mse, ".3g"), fmt(ms.get("filter"), ".2f"),
+            fmt(ms.get("draw"), ".2f"), fmt(ms.get("total"), ".2f"), fmt(ms.get("precompute"), ".1f"),
+            ", ".join(r.unsimulated_effects) or "-"]
+
+
+def label(r: ResultRow) -> str:
+    mats = "; ".join(" ".join(f"{k}={fmt(v, 'g') if isinstance(v, float) else v}" for k, v in m.items()
+                              if k not in ("kd", "ks") and not (k == "two_sided" and not v)) for m in r.materials)
+    return f"{r.scene}: {r.technique_label}, face {r.face_size}, {mats}, {env_name(r.env)}"
+
+
+def _inline(path: Path) -> str:
+    return base64.b64encode(path.read_bytes()).decode()
+
+
+def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] | None = None,
+          rows: list[ResultRow] | None = None, subtitle: str = "") -> Path:
+    """Write out_dir/index.html and out_dir/summary.md; returns the HTML path."""
+    out_dir = Path(out_dir)
+    saved = out_dir / SECTIONS
+    if sections is None and saved.is_file():
+        meta = read_sections(saved)
+        sections = [Section.from_dict(d) for d in meta["sections"]]
+        title, subtitle = str(meta.get("title", title)), subtitle or str(meta.get("subtitle", ""))
+    if rows is None:
+        rows = store_in(out_dir).read()
+    figdir = out_dir / "figures"
+    figdir.mkdir(parents=True, exist_ok=True)
+    plot_list = []
+    for name, fn, alt in (("psnr_ssim_vs_lod_bias.png", plots.accuracy_vs_bias, "PSNR and SSIM against LOD bias"),
+                          ("psnr_vs_frame_time.png", plots.accuracy_vs_time, "PSNR against frame time"),
+                          ("time_vs_face_size.png", plots.cost_vs_size, "filter and draw time against face size")):
+        if rows and fn(rows, figdir / name):
+            plot_list.append({"file": f"figures/{name}", "data": _inline(figdir / name), "alt": alt})
+    view_rows = [{"cells": table_cells(r), "at_floor": r.at_noise_floor,
+                  "images": {k: local_src(r.images.get(k)) for k in ("realtime", "reference", "error", "flip")},
+                  "label": label(r), "psnr": fmt(r.psnr, ".2f")} for r in rows]
+    html = render_page(title=title, subtitle=subtitle or f"{len(rows)} configurations", sections=sections or [],
+                       plots=plot_list, rows=view_rows, columns=[{"title": t, "left": left} for t, left in COLUMNS])
+    index = out_dir / "index.html"
+    outputs.write_text(index, html)
+    outputs.write_text(out_dir / "summary.md", summary_markdown(title, rows, sections or [], plot_list))
+    return index
+
+
+def read_sections(path: Path) -> dict:
+    """experiments.json of a paper report; an unreadable one is bad input naming the file."""
+    from scenes import InputError
+
+    try:
+        meta = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(meta, dict) or not isinstance(meta.get("sections"), list) \
+                or not all(isinstance(d, dict) for d in meta["sections"]):
+            raise ValueError("no list of sections")
+        return meta
+    except (ValueError, RecursionError, UnicodeDecodeError) as exc:
+        reason = "nested too deeply" if isinstance(exc, RecursionError) else "not the saved sections of a report"
+        raise InputError(f"{path}: {reason}; delete it to rebuild the page from results.jsonl alone") from None
+
+
+#: the page's only script (column sorting); the Content-Security-Policy allows it by its hash
+SORT_SCRIPT = "report_sort.js"
+
+
+def render_page(**context) -> str:
+    """The report page from report.html.j2, autoescaped, with its Content-Security-Policy."""
+    from jinja2 import Environment, PackageLoader
+
+    from experiments.publish.text import html_text
+
+    env = Environment(loader=PackageLoader("experiments.publish", "templates"), autoescape=True, finalize=html_text)
+    env.filters["local_src"] = local_src
+    script = env.get_template(SORT_SCRIPT).render()  # exactly what `{% include %}` puts in the page
+    digest = base64.b64encode(hashlib.sha256(script.encode()).digest()).decode()
+    csp = (f"default-src 'none'; script-src 'sha256-{digest}'; style-src 'unsafe-inline'; "
+           "img-src 'self' data: file:; base-uri 'none'; form-action 'none'")
+    return env.get_template("report.html.j2").render(csp=csp, **context)
+
+
+def summary_markdown(title: str, rows: list[ResultRow], sections: list[Section], plot_list: list[dict]) -> str:
+    lines = [f"# {md_cell(title)}", ""]
+    for s in sections:
+        lines += [f"## {md_cell(s.title)}", "", md_block(s.markdown).strip(), ""]
+        lines += [f"![{md_cell(s.title)}]({local_src(f)})" for f in s.figures]
+        lines.append("")
+    if rows:
+        best = {}
+        for r in rows:
+            key = (r.scene, r.material, r.exponent, r.f0, env_name(r.env))
+            if r.psnr is not None and (key not in best or r.psnr > best[key].psnr):
+                best[key] = r
+        lines += ["## Best configuration per scene and material", "",
+                  "| scene | material | N | f0 | env | techniques | face | PSNR dB | floor dB | SSIM | total ms |",
+                  "|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|"]
+        for (name, mat, n, f0, env), r in sorted(best.items(), key=str):
+            cells = [name, mat, fmt(n, "g"), fmt(f0, "g"), env, r.technique_label, r.face_size, fmt(r.psnr, ".2f"),
+                     fmt(r.noise_floor_psnr, ".2f"), fmt(r.ssim, ".4f"), fmt(r.realtime_ms.get("total"), ".2f")]
+            lines.append("| " + " | ".join(md_cell(c) for c in cells) + " |")
+        lines.append("")
+    lines += [f"![{p['alt']}]({p['file']})" for p in plot_list]
+    return "\n".join(lines) + "\n"

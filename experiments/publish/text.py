@@ -1,0 +1,76 @@
+"""Text that leaves iblcheck for a terminal, an XML file or a Markdown file (issue 11, section 1).
+
+Scene names, file names and `--set` values are user text: a name may hold ANSI escape sequences,
+newlines, NUL bytes, bidirectional overrides or bytes that are not UTF-8 (a file name decoded with
+Python's surrogateescape). Before such text is printed or written outside HTML it goes through
+one of these functions; HTML goes through Jinja's autoescape (experiments/publish/report.py).
+
+- `visible(text)`: every control character (C0, DEL, C1), bidirectional control and undecodable
+  byte is shown as an escape (`\\x1b`, `\\n`, `\\u202e`), so nothing reaches a terminal that it
+  could interpret, and a name cannot start a new line.
+- `one_line(text, limit)`: `visible`, then cut in the middle to `limit` characters (the end of an
+  error line says what is allowed, so it is kept).
+- `xml_text(text)`: `visible` (XML 1.0 forbids most control characters; a JUnit file with one
+  does not parse).
+- `html_text(value)`: Jinja's `finalize` for the report page: control characters as in `visible`
+  (newlines and tabs kept: HTML whitespace); Jinja's autoescape then escapes the markup.
+- `md_cell(text)`: `visible`, with `&`, `<`, `>` written as entities and `|` escaped, so a cell can
+  neither end a Markdown table row nor smuggle HTML into a renderer that passes HTML through.
+"""
+
+from __future__ import annotations
+
+import re
+
+#: C0 controls (newline and tab included), DEL, C1 controls, bidirectional controls, lone surrogates
+#: (undecodable bytes of a file name), U+FFFE/U+FFFF (not characters; invalid in XML)
+_UNSAFE = re.compile("[\x00-\x1f\x7f-\x9f\u061c\u200e\u200f\u202a-\u202e\u2066-\u2069\ud800-\udfff\ufffe\uffff]")
+_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+#: an error or warning line longer than this is cut in the middle
+LINE_LIMIT = 600
+
+
+def _escape(m: re.Match) -> str:
+    ch = m.group(0)
+    if ch in _NAMED:
+        return _NAMED[ch]
+    code = ord(ch)
+    if 0xDC80 <= code <= 0xDCFF:  # a byte that was not UTF-8, as surrogateescape keeps it
+        return f"\\x{code - 0xDC00:02x}"
+    return f"\\x{code:02x}" if code < 0x100 else f"\\u{code:04x}"
+
+
+def visible(text: object, keep: str = "") -> str:
+    """`text` with every character a terminal or an XML parser could choke on shown as an escape
+    (except the characters in `keep`, e.g. newlines in a block of HTML text)."""
+    return _UNSAFE.sub(lambda m: m.group(0) if m.group(0) in keep else _escape(m), str(text))
+
+
+def shorten(text: str, limit: int = LINE_LIMIT) -> str:
+    """Cut `text` in the middle to at most about `limit` characters, saying how much was left out."""
+    if len(text) <= limit:
+        return text
+    keep = max(limit - 40, 20)
+    head, tail = keep * 2 // 3, keep - keep * 2 // 3
+    return f"{text[:head]} ... ({len(text) - head - tail} characters left out) ... {text[len(text) - tail:]}"
+
+
+def one_line(text: object, limit: int = LINE_LIMIT) -> str:
+    """A single, safe, bounded line for a terminal (error and warning lines, table cells)."""
+    return shorten(visible(text), limit)
+
+
+def xml_text(text: object) -> str:
+    """Text that an XML 1.0 document may hold (ElementTree escapes &, < and > itself)."""
+    return visible(text)
+
+
+def md_cell(text: object) -> str:
+    """A Markdown table cell: one line, no raw HTML, no column separators."""
+    cell = visible(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
+    return cell.replace("|", "\\|")
+
+
+def html_text(value: object) -> object:
+    """Every `{{ value }}` of the report page before autoescape: strings made visible (see above)."""
+    return visible(value, keep="\n\t") if isinstance(value, str) else value

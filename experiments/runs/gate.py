@@ -1,0 +1,759 @@
+"""`iblcheck gate`: the CI image-quality gate, by thresholds and against a baseline.
+
+Thresholds per scene: the command line's (`--min-psnr`, `--min-ssim`, `--max-flip`) override
+the scene's `[gate]` table. A scene with no threshold, no baseline to compare with and none to
+write is a usage error (a gate that cannot fail is no gate). Exit code 0 when every check passes, 1 when any fails
+(design.md section 6); bad scenes and a bad baseline file are refused before anything renders
+(exit 2). `--junit FILE` writes JUnit XML: one test case per scene, a <failure> naming each failed
+check, properties with every value; `--markdown FILE` a short table for a pull-request comment.
+Names are cleaned of control characters (experiments/publish/text.py: XML 1.0 cannot hold them; Markdown
+cells cannot end a row or carry HTML) and every file is written atomically.
+
+Baseline gating ("fail when this change made the image worse than main")
+------------------------------------------------------------------------
+`--write-baseline FILE` stores one record per scene (JSON, `FORMAT`): the metrics (PSNR, SSIM, FLIP,
+the reference's noise floor, the covered pixels, the standard errors that the reference's noise gives
+the MSE, SSIM and FLIP), the timings, the scene's resolved settings, and the identity of what produced
+them: iblcheck's version, the techniques, the reference (spp, seed, variant, Mitsuba and plugin
+versions, its cache key and a digest of its pixels), the GL renderer and a digest of the real-time
+image. The file holds exactly the scenes of that run. `--baseline FILE` compares each scene with its
+record.
+
+A record's key is the scene as named on the command line (`builtin:NAME`, or the file path,
+normalised): what stays the same when a change is tested. `--set` overrides do not change the key;
+they are recorded, and every setting that differs from the baseline's is printed in a warning line
+(`realtime.lod_bias = 3.0 (baseline 0.0)`), so a changed setting is compared with the unchanged
+scene and says so.
+
+The PSNR rule. With M = 10^(-PSNR/10) a run's mean squared error (display values, range 1),
+s2 = 10^(-floor/10) its reference's noise variance per value (the noise floor: half the mean squared
+difference of the reference's two seeds), N its covered pixels and z = 2 standard errors (one-sided
+97.7 %, the convention of metrics.psnr_unbiased). A reference is r = truth + n, so
+M = mean((t - truth)^2) - 2 mean((t - truth) n) + mean(n^2).
+
+- Same reference (its pixels' digest equals the baseline's: same settings, seed, spp and variant
+  make it bit-identical): n is the same noise in both runs, so M_new - M_base is the true change plus
+  -2 mean((t_new - t_base) n). With pixels as sampling units (a pixel's channels may be fully
+  correlated) that term has a standard deviation of at most 2 sigma rms(t_new - t_base) / sqrt(N), and
+  rms(t_new - t_base) <= sqrt(M_base) + sqrt(M_new) (the triangle inequality through the common r):
+      s = 2 sigma (sqrt(M_base) + sqrt(M_new)) / sqrt(N).
+  The bound is loose: on sphere-phong (48 x 48, 32 spp, LOD bias 0 against 1 and -1, against the
+  noise-free quadrature over 12 seeds) the term's actual spread was 1/7 to 1/10 of s.
+- Different references (another seed, spp, variant or CPU): the noises are independent. Each run
+  records mse_se, the standard error of its M under the reference's noise: D_p = mean over channels of
+  (t - r1)^2 - (t - r2)^2 is the difference of two independent draws per pixel (pixels are independent
+  with the references' box filter), so mse_se = block_se(D, 1 x 1) / sqrt(2); s = sqrt(mse_se_base^2 +
+  mse_se_new^2). M - s2 is an unbiased estimate of the error against the truth (metrics.psnr_unbiased),
+  so a reference with more noise (s2_new > s2_base) is expected to cost that much MSE.
+
+A scene fails when  M_new - M_base > z s + (s2_new - s2_base),  that is when its PSNR fell below the
+baseline's by more than  tolerance_db = 10 log10(1 + (z s + s2_new - s2_base) / M_base).  With the same
+reference the last term is 0, and an unchanged image (delta exactly 0) always passes; with a noisier
+reference the tolerance grows by the PSNR that noise alone costs (and shrinks, possibly below 0, with
+a cleaner one). `--tolerance-db T` replaces the rule: fail when PSNR_base - PSNR_new > T.
+
+SSIM and FLIP. Each run records the metric's standard error under reference noise, estimated from
+its maps against the two seeds: D = map(t, r1) - map(t, r2) is the difference of two independent
+draws; with 16 x 16 blocks as sampling units (SSIM's 7 x 7 window and FLIP's filters correlate
+neighbours), se = block_se(D) / sqrt(2). A scene fails when SSIM fell, or FLIP rose, by more than
+z sqrt(se_base^2 + se_new^2) + shift. `--tolerance-ssim`, `--tolerance-flip` replace that. The shift is
+0 with the same reference; with a noisier one (fewer spp) it is what that noise alone costs the metric,
+slope (s2_new - s2_base), the slope measured per run against the mean of its two seeds (a reference
+with half the variance). It only widens the tolerance: a cleaner reference does not narrow it (the
+measured slope is noisy, and SSIM is not linear in the variance near its constants); the PSNR's shift
+is exact and signed. With the same
+reference this is conservative (the shared noise partly cancels); across references it is what the
+noise can do, measured on sphere-phong over 32 seeds: the estimates were 0.87 (MSE), 0.80 (FLIP) and
+0.61 (SSIM) of the observed spread at 96 x 96 and 64 spp, 0.9 to 1.25 of it at 48 x 48, and an
+unchanged image failed against another seed's baseline in 2 to 9 % of the pairs (z = 2 would be 2.3 %):
+the comparison across references is less tight, and the gate says so (below).
+
+Frame time (`realtime_ms.total`) is reported with its ratio to the baseline's; it fails only with
+`--max-time-ratio R` and a ratio above R (machines differ).
+
+When the identity differs (the reference, the GL renderer, the techniques, iblcheck's version or any
+setting), a `warning:` line says what: the comparison is then less tight (another GL renders another
+image; another reference takes the different-references branch). A scene missing from the baseline
+fails, as a missing golden image does in CI (`--write-baseline` adds it); baseline scenes not run are
+listed in a note. A baseline file that is missing, unreadable, not JSON, holds NaN or Infinity or a
+field of the wrong type is a `BaselineError` naming the file and the field (exit 2).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import time
+import xml.etree.ElementTree as ET
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from experiments.publish.text import md_cell, one_line, xml_text
+from scenes import InputError
+
+CHECKS = (("min_psnr", "psnr", ">="), ("min_ssim", "ssim", ">="), ("max_flip", "flip", "<="))
+
+#: the baseline file's format marker and version (a newer version is refused, not misread)
+FORMAT, VERSION = "iblcheck-gate-baseline", 1
+#: standard errors a worsening must exceed to fail (metrics.UNBIASED_FLOOR_SE: one-sided 97.7 %)
+Z = 2.0
+#: the side of the blocks that are the sampling units of the SSIM/FLIP standard errors
+BLOCK = 16
+#: a baseline file larger than this is refused before it is read
+MAX_BASELINE_BYTES = 64 << 20
+#: the metrics a baseline compares, and the direction in which each gets worse
+BASELINE_METRICS = (("psnr", "dB", -1), ("ssim", "", -1), ("flip", "", +1))
+
+
+class BaselineError(InputError):
+    """A baseline file is missing, unreadable or malformed (exit 2)."""
+
+
+@dataclass
+class Delta:
+    """One metric of a scene against its baseline. For `time` the delta is the ratio new / baseline."""
+
+    metric: str
+    baseline: float | None
+    new: float | None
+    tolerance: float | None  # the worsening allowed (dB for PSNR); for time, --max-time-ratio or None
+    failed: bool = False
+
+    @property
+    def delta(self) -> float | None:
+        if self.baseline is None or self.new is None:
+            return None
+        if self.metric == "time":
+            return self.new / self.baseline if self.baseline > 0 else None
+        return self.new - self.baseline
+
+
+@dataclass
+class GateResult:
+    scene: str
+    metrics: dict
+    thresholds: dict
+    failures: list[str] = field(default_factory=list)
+    seconds: float = 0.0
+    record: dict | None = None  # what --write-baseline stores for this scene
+    baseline: str | None = None  # None (no baseline given), "compared" or "missing"
+    deltas: list[Delta] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        return not self.failures
+
+
+# --------------------------------------------------------------------------- thresholds
+
+
+def thresholds_for(scene, cli: dict, required: bool = True) -> dict:
+    out = {k: getattr(scene.gate, k) for k, _, _ in CHECKS}
+    out.update({k: v for k, v in cli.items() if v is not None})
+    out = {k: v for k, v in out.items() if v is not None}
+    if not out and required:
+        raise InputError(f"{scene.path}: no gate thresholds: give --min-psnr/--min-ssim/--max-flip, "
+                         "a [gate] table in the scene, or --baseline FILE")
+    return out
+
+
+def evaluate(metrics: dict, thresholds: dict) -> list[str]:
+    failures = []
+    for key, metric, op in CHECKS:
+        if key not in thresholds:
+            continue
+        value, limit = metrics.get(metric), thresholds[key]
+        if value is None:
+            failures.append(f"{metric} undefined (no covered pixels), required {op} {limit:g}")
+        elif (op == ">=" and value < limit) or (op == "<=" and value > limit):
+            failures.append(f"{metric} = {value:.4g}, required {op} {limit:g}")
+    return failures
+
+
+# --------------------------------------------------------------------------- loading and measuring
+
+
+@dataclass
+class Planned:
+    """A scene to gate: as named, loaded with the --set overrides, with its thresholds and key."""
+
+    spec: str
+    scene: Any
+    thresholds: dict
+    sets: dict
+    key: str
+
+    def __iter__(self):  # unpacks as (scene, thresholds), as load() returned before baselines
+        return iter((self.scene, self.thresholds))
+
+
+def scene_key(spec: str) -> str:
+    """The baseline key of a scene as named on the command line: builtin names as they are, file
+    paths normalised (`./a.toml` and `a.toml` are one key)."""
+    return spec if spec.startswith("builtin:") else os.path.normpath(spec)
+
+
+def run(scene_specs: list[str], cli_thresholds: dict, sets: dict | None = None) -> list[GateResult]:
+    """Load every scene first (bad input fails before any render), then compare each."""
+    return compare_all(load(scene_specs, cli_thresholds, sets))
+
+
+def load(scene_specs: list[str], cli_thresholds: dict, sets: dict | None = None,
+         thresholds_required: bool = True) -> list[Planned]:
+    """Every scene loaded and validated, with its thresholds (bad input fails before any render)."""
+    import scenes
+
+    loaded, keys = [], {}
+    for spec in scene_specs:
+        s = scenes.load(spec)
+        s = s.with_overrides(sets) if sets else s
+        key = scene_key(spec)
+        if not thresholds_required and key in keys:
+            raise InputError(f"{spec}: named twice (as {keys[key]!r}); a baseline holds one record per scene")
+        keys[key] = spec
+        loaded.append(Planned(spec, s, thresholds_for(s, cli_thresholds, thresholds_required), dict(sets or {}), key))
+    return loaded
+
+
+@dataclass
+class Measured:
+    """One scene measured: the comparison's metrics, the noise of SSIM and FLIP, the renders' meta."""
+
+    metrics: dict
+    noise: dict
+    test_meta: dict
+    reference_meta: dict
+    digests: dict
+    seconds: float
+
+
+def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
+    """Render `scene`'s reference (and its second seed) and its real-time image, and compare them:
+    comparison.run in steps, each announced to `step` (a progress bar), with the reference-noise
+    standard errors of SSIM and FLIP (`metric_noise`) when `noise`."""
+    import groundtruth
+    import realtime
+    from experiments.measure import comparison, metrics
+
+    step = step or (lambda text: None)
+    t0 = time.perf_counter()
+    name = one_line(scene.name, 60)
+    step(f"{name}: reference")
+    reference = groundtruth.render(scene)
+    step(f"{name}: reference, second seed")
+    reference2 = comparison.second_reference(reference, scene)
+    step(f"{name}: real-time")
+    test = realtime.render(scene)
+    step(f"{name}: metrics")
+    result = comparison.compare(test, reference, scene, reference2)
+    extra = {}
+    if noise and reference2 is not None:
+        mask = metrics.common_mask(test.mask, reference.mask) & reference2.mask
+        a, b, b2 = (metrics.display(scene, x.rgb) for x in (test, reference, reference2))
+        extra = metric_noise(a, b, b2, mask)
+    digests = {"image_sha256": _digest(test.rgb, test.mask), "reference_sha256": _digest(reference.rgb, reference.mask)}
+    return Measured(result, extra, dict(test.meta), dict(reference.meta), digests, time.perf_counter() - t0)
+
+
+def _digest(rgb: np.ndarray, mask: np.ndarray) -> str:
+    h = hashlib.sha256(np.ascontiguousarray(rgb, np.float32).tobytes())
+    h.update(np.ascontiguousarray(mask, bool).tobytes())
+    return h.hexdigest()[:32]
+
+
+def block_se(diff: np.ndarray, sel: np.ndarray, block: int = BLOCK) -> float | None:
+    """The standard error of mean(diff[sel]), with `block` x `block` tiles as the sampling units.
+
+    With S_b the sum of diff over the selected pixels of tile b, c_b their count, n = sum c_b and
+    D = sum S_b / n (a ratio estimator): se = sqrt(B / (B - 1) * sum_b (S_b - c_b D)^2) / n over the B
+    tiles with a selected pixel. None with fewer than 2 such tiles.
+    """
+    sums, counts = [], []
+    h, w = sel.shape
+    for y in range(0, h, block):
+        for x in range(0, w, block):
+            m = sel[y:y + block, x:x + block]
+            if m.any():
+                sums.append(float(np.asarray(diff[y:y + block, x:x + block], np.float64)[m].sum()))
+                counts.append(int(m.sum()))
+    if len(sums) < 2:
+        return None
+    s, c = np.array(sums), np.array(counts, np.float64)
+    n = c.sum()
+    mean = s.sum() / n
+    return float(math.sqrt(len(s) / (len(s) - 1) * float(((s - c * mean) ** 2).sum())) / n)
+
+
+def ssim_map(test: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
+    """(map, selection) of metrics.ssim: the channel-mean SSIM map and the pixels it averages
+    (mean(map[selection]) == metrics.ssim(test, reference, mask)); None where metrics.ssim is None."""
+    from skimage.metrics import structural_similarity
+
+    h, w = mask.shape
+    if not mask.any() or min(h, w) < 7:
+        return None
+    _, smap = structural_similarity(np.asarray(test, np.float64), np.asarray(reference, np.float64),
+                                    data_range=1.0, channel_axis=-1, full=True)
+    inner = np.zeros_like(mask)
+    inner[3:h - 3, 3:w - 3] = True
+    sel = mask & inner
+    return (smap.mean(axis=-1), sel) if sel.any() else None
+
+
+def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray, mask: np.ndarray) -> dict:
+    """How the reference's noise moves the metrics of `test` (display values; module docstring):
+    `mse_se`, `ssim_se`, `flip_se`, the standard errors, from the maps against two independently seeded
+    references; `ssim_noise_slope`, `flip_noise_slope`, the change of the metric per unit of noise
+    variance, from the reference against the mean of both (half the variance). None where it cannot
+    be estimated (too few pixels, a noise-free reference)."""
+    from experiments.measure import metrics
+
+    out = dict.fromkeys(("mse_se", "ssim_se", "flip_se", "ssim_noise_slope", "flip_noise_slope"))
+    if not mask.any():
+        return out
+    t, r1, r2 = (np.asarray(x, np.float64) for x in (test, reference, reference2))
+    half = (r1 + r2) / 2  # a reference with half the noise variance
+    variance = float(np.mean(((r1 - r2) ** 2)[mask])) / 2  # per value: 10^(-noise_floor_psnr / 10)
+    se = block_se(((t - r1) ** 2 - (t - r2) ** 2).mean(axis=-1), mask, block=1)  # pixels are independent
+    out["mse_se"] = None if se is None else se / math.sqrt(2)
+    one, two, mid = ssim_map(t, r1, mask), ssim_map(t, r2, mask), ssim_map(t, half, mask)
+    if one is not None and two is not None:
+        se = block_se(one[0] - two[0], one[1])
+        out["ssim_se"] = None if se is None else se / math.sqrt(2)
+        if variance > 0:
+            out["ssim_noise_slope"] = float(one[0][one[1]].mean() - mid[0][mid[1]].mean()) / (variance / 2)
+    f1 = metrics.flip_map(t, r1)
+    se = block_se(f1 - metrics.flip_map(t, r2), mask)
+    out["flip_se"] = None if se is None else se / math.sqrt(2)
+    if variance > 0:
+        out["flip_noise_slope"] = float(f1[mask].mean() - metrics.flip_map(t, half)[mask].mean()) / (variance / 2)
+    return out
+
+
+def iblcheck_version() -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version("iblcheck")
+    except metadata.PackageNotFoundError:  # run from a checkout that was never installed
+        return "unknown"
+
+
+def make_record(planned: Planned, m: Measured) -> dict:
+    """What --write-baseline stores for a scene (module docstring)."""
+    from experiments.runs.sweep import content_id, scene_content
+
+    ref = m.reference_meta
+    record = {
+        "name": planned.scene.name,
+        "spec": planned.spec,
+        "sets": {k: str(v) for k, v in planned.sets.items()},
+        "scene_id": content_id(planned.scene),
+        "settings": flatten(scene_content(planned.scene)),
+        "identity": {
+            "iblcheck": iblcheck_version(),
+            "techniques": m.test_meta.get("techniques"),
+            "gl": m.test_meta.get("gl"),
+            "reference": {k: ref.get(k) for k in ("spp", "seed", "variant", "mitsuba", "plugin_version",
+                                                  "integrator", "model", "key")},
+            **m.digests,
+        },
+        "metrics": {**{k: m.metrics.get(k) for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "psnr_unbiased",
+                                                       "rel_mse", "pixels")}, **m.noise},
+        "timings": {"realtime_ms": m.metrics.get("realtime_ms"), "reference_s": m.metrics.get("reference_s"),
+                    "seconds": m.seconds},
+    }
+    # through JSON once, so that a fresh record equals one read back (tuples become lists)
+    return json.loads(json.dumps(record, default=str, allow_nan=False))
+
+
+def flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
+    """{"a.b.0.c": value} for a nested dict/list (the scene keys of `--set`)."""
+    if isinstance(tree, dict):
+        items = tree.items()
+    elif isinstance(tree, (list, tuple)) and any(isinstance(v, (dict, list, tuple)) for v in tree):
+        items = enumerate(tree)
+    else:
+        return {prefix: tree}
+    out: dict[str, Any] = {}
+    for k, v in items:
+        out.update(flatten(v, f"{prefix}.{k}" if prefix else str(k)))
+    return out
+
+
+def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | None = None,
+                step: Callable[[str], None] | None = None, noise: bool = True) -> list[GateResult]:
+    """Measure every planned scene, check its thresholds and, with `baseline` (read_baseline), compare
+    it with its record (`tolerances`: tolerance_db, tolerance_ssim, tolerance_flip, max_time_ratio).
+    `noise=False` skips the metrics' noise estimates (a gate by thresholds alone needs none)."""
+    results = []
+    for p in loaded:
+        p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
+        m = measure(p.scene, step, noise=noise or baseline is not None)
+        record = make_record(p, m)
+        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds), m.seconds, record)
+        if baseline is not None:
+            entry = baseline["scenes"].get(p.key)
+            if entry is None:
+                r.baseline = "missing"
+                r.failures.append(f"not in the baseline {baseline['path']} (key {p.key!r}); "
+                                  "--write-baseline records it")
+            else:
+                r.baseline = "compared"
+                r.deltas, fails, r.warnings = compare_record(record, entry, tolerances or {})
+                r.failures += fails
+        results.append(r)
+    return results
+
+
+# --------------------------------------------------------------------------- the baseline rule
+
+
+def _mse(psnr: float) -> float:
+    return 10.0 ** (-psnr / 10.0)
+
+
+def psnr_tolerance_db(base: dict, new: dict, same_reference: bool, z: float = Z) -> float:
+    """The PSNR drop (dB) the reference's noise can explain (module docstring, "The PSNR rule").
+
+    `base`, `new`: {"psnr", "noise_floor_psnr", "pixels"}. The result may be negative when the new
+    reference is less noisy than the baseline's (its PSNR should then rise)."""
+    m_b, m_n = _mse(base["psnr"]), _mse(new["psnr"])
+    v_b, v_n = _mse(base["noise_floor_psnr"]), _mse(new["noise_floor_psnr"])
+    if same_reference:
+        n = max(min(base["pixels"], new["pixels"]), 1)
+        s = 2.0 * math.sqrt(v_b) * (math.sqrt(m_b) + math.sqrt(m_n)) / math.sqrt(n)
+        shift = 0.0
+    else:
+        s = math.sqrt((base.get("mse_se") or 0.0) ** 2 + (new.get("mse_se") or 0.0) ** 2)
+        shift = v_n - v_b
+    return 10.0 * math.log10(max(1.0 + (z * s + shift) / m_b, 1e-12))
+
+
+def metric_tolerance(base_se: float | None, new_se: float | None, z: float = Z, shift: float = 0.0) -> float:
+    """z sqrt(se_base^2 + se_new^2) + shift for SSIM or FLIP (an unknown standard error counts as 0);
+    `shift`: the worsening that the new reference's other noise level alone explains (noise_shift)."""
+    return z * math.sqrt((base_se or 0.0) ** 2 + (new_se or 0.0) ** 2) + shift
+
+
+def noise_shift(metric: str, base: dict, new: dict) -> float:
+    """The worsening of `metric` (ssim or flip) that a noisier new reference explains: slope (s2_new -
+    s2_base) with the mean of the runs' `METRIC_noise_slope`, when that is a worsening, else 0 (a cleaner
+    reference never narrows the tolerance: the measured slope is noisy, and SSIM is not linear in the
+    variance near its constants). 0 without both floors or any slope."""
+    slopes = [x[f"{metric}_noise_slope"] for x in (base, new) if x.get(f"{metric}_noise_slope") is not None]
+    if not slopes or base.get("noise_floor_psnr") is None or new.get("noise_floor_psnr") is None:
+        return 0.0
+    change = sum(slopes) / len(slopes) * (_mse(new["noise_floor_psnr"]) - _mse(base["noise_floor_psnr"]))
+    return max(-change if metric == "ssim" else change, 0.0)
+
+
+def identity_differences(record: dict, entry: dict) -> list[str]:
+    """What differs between a run and its baseline record, as short phrases (empty when nothing does)."""
+    out = []
+    a, b = record.get("identity", {}), entry.get("identity", {})
+    ra, rb = a.get("reference") or {}, b.get("reference") or {}
+    changed = [f"{k} {ra.get(k)} (baseline {rb.get(k)})" for k in ("spp", "seed", "variant", "mitsuba",
+                                                                    "plugin_version", "integrator", "model")
+               if ra.get(k) != rb.get(k)]
+    looser = "; the comparison with the baseline is less tight"
+    if changed:
+        out.append("the reference differs: " + ", ".join(changed) + looser)
+    elif a.get("reference_sha256") != b.get("reference_sha256"):
+        out.append("the reference has the baseline's settings but other pixels (another machine or CPU?)" + looser)
+    if a.get("gl") != b.get("gl"):
+        out.append(f"the GL renderer differs: {a.get('gl')} (baseline {b.get('gl')}){looser}")
+    if a.get("iblcheck") != b.get("iblcheck"):
+        out.append(f"iblcheck {a.get('iblcheck')} (baseline {b.get('iblcheck')})")
+    sa, sb = record.get("settings") or {}, entry.get("settings") or {}
+    diff = [f"{k} = {_short(sa.get(k, '(none)'))} (baseline {_short(sb.get(k, '(none)'))})"
+            for k in sorted(set(sa) | set(sb)) if sa.get(k) != sb.get(k)]
+    if diff:
+        out.append("settings differ from the baseline's: " + ", ".join(diff))
+    elif a.get("techniques") != b.get("techniques"):
+        out.append("the techniques differ")
+    return out
+
+
+def _short(value: Any) -> str:
+    text = json.dumps(value, default=str) if not isinstance(value, str) else value
+    return text if len(text) <= 60 else text[:57] + "..."
+
+
+def compare_record(record: dict, entry: dict, tolerances: dict) -> tuple[list[Delta], list[str], list[str]]:
+    """(deltas, failures, warnings) of a run's record against its baseline record (module docstring)."""
+    new, base = record["metrics"], entry["metrics"]
+    same_ref = (record["identity"].get("reference_sha256") is not None
+                and record["identity"].get("reference_sha256") == entry.get("identity", {}).get("reference_sha256"))
+    deltas, failures = [], []
+    for metric, unit, worse in BASELINE_METRICS:
+        b, n = base.get(metric), new.get(metric)
+        if b is None:
+            deltas.append(Delta(metric, b, n, None))
+            continue
+        if n is None:
+            deltas.append(Delta(metric, b, n, None, True))
+            failures.append(f"{metric} undefined (no covered pixels), baseline {b:.4g}")
+            continue
+        given = tolerances.get({"psnr": "tolerance_db"}.get(metric, f"tolerance_{metric}"))
+        if given is not None:
+            tol = given
+        elif metric == "psnr":
+            tol = psnr_tolerance_db(base, new, same_ref) if base.get("noise_floor_psnr") is not None \
+                and new.get("noise_floor_psnr") is not None else 0.0
+        else:
+            tol = metric_tolerance(base.get(f"{metric}_se"), new.get(f"{metric}_se"),
+                                   shift=0.0 if same_ref else noise_shift(metric, base, new))
+        worsening = (n - b) * worse
+        d = Delta(metric, b, n, tol, worsening > tol)
+        deltas.append(d)
+        if d.failed:
+            u = f" {unit}" if unit else ""
+            verb = "fell" if worse < 0 else "rose"
+            failures.append(f"{metric} {verb} from the baseline {_fmt(metric, b)} to {_fmt(metric, n)}{u} "
+                            f"(delta {_fmt(metric, d.delta, True)}{u}; tolerance {_fmt(metric, tol)}{u})")
+    tb = ((entry.get("timings") or {}).get("realtime_ms") or {}).get("total")
+    tn = ((record.get("timings") or {}).get("realtime_ms") or {}).get("total")
+    limit = tolerances.get("max_time_ratio")
+    d = Delta("time", tb, tn, limit)
+    ratio = d.delta
+    if limit is not None and tb is not None and tn is not None and (ratio is None or ratio > limit):
+        d.failed = True
+        failures.append(f"frame time {tn:.2f} ms is {'inf' if ratio is None else f'{ratio:.2f}'}x the baseline "
+                        f"{tb:.2f} ms, above --max-time-ratio {limit:g}")
+    deltas.append(d)
+    warnings = identity_differences(record, entry)
+    return deltas, failures, warnings
+
+
+def _fmt(metric: str, value: float | None, signed: bool = False) -> str:
+    if value is None:
+        return "-"
+    spec = {"psnr": ".2f", "time": ".2f"}.get(metric, ".4f")
+    return format(value, ("+" if signed else "") + spec)
+
+
+# --------------------------------------------------------------------------- the baseline file
+
+
+def write_baseline(path: Path, results: list[GateResult]) -> None:
+    """FILE: this run's records, keyed by scene key (written atomically)."""
+    from experiments.publish.outputs import write_text
+
+    scenes_out = {}
+    for r in results:
+        if r.record is not None:
+            scenes_out[scene_key(r.record["spec"])] = r.record
+    data = {"format": FORMAT, "version": VERSION, "iblcheck": iblcheck_version(),
+            "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "scenes": scenes_out}
+    write_text(path, json.dumps(data, indent=1, sort_keys=True, allow_nan=False) + "\n")
+
+
+def _reject_constant(name: str):
+    raise ValueError(f"holds {name}, which is not a number JSON allows")
+
+
+def read_baseline(path: str | Path) -> dict:
+    """The baseline file at `path`, checked: {"path", "scenes": {key: record}, ...}. Every problem is a
+    BaselineError naming the file (and the field)."""
+    from scenes.storage.files import read_input
+
+    path = Path(path)
+    data = read_input(path, "baseline file", MAX_BASELINE_BYTES, BaselineError)
+    try:
+        tree = json.loads(data.decode("utf-8"), parse_constant=_reject_constant)
+    except UnicodeDecodeError as exc:
+        raise BaselineError(f"{path}: baseline file is not UTF-8 text (byte {exc.start})") from None
+    except json.JSONDecodeError as exc:
+        raise BaselineError(f"{path}: baseline file is not valid JSON (line {exc.lineno}, column {exc.colno}: "
+                            f"{exc.msg})") from None
+    except ValueError as exc:  # NaN / Infinity (parse_constant) or a number too deep
+        raise BaselineError(f"{path}: baseline file {exc}") from None
+    except RecursionError:
+        raise BaselineError(f"{path}: baseline file nests too deep") from None
+    if not isinstance(tree, dict) or tree.get("format") != FORMAT:
+        raise BaselineError(f"{path}: not an iblcheck gate baseline (no \"format\": \"{FORMAT}\"); write one with "
+                            "`iblcheck gate SCENES --write-baseline FILE`")
+    version = tree.get("version")
+    if not isinstance(version, int) or isinstance(version, bool) or not 1 <= version <= VERSION:
+        raise BaselineError(f"{path}: baseline format version {_short(version)}: this iblcheck reads version "
+                            f"{VERSION}")
+    scenes_in = tree.get("scenes")
+    if not isinstance(scenes_in, dict):
+        raise BaselineError(f"{path}: \"scenes\" must be an object of scene records")
+    for key, entry in scenes_in.items():
+        _check_entry(path, key, entry)
+    return {**tree, "path": str(path)}
+
+
+def _number(value: Any, nullable: bool = True) -> bool:
+    if value is None:
+        return nullable
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+
+
+def _check_entry(path: Path, key: str, entry: Any) -> None:
+    where = f"{path}: scenes[{_short(key)}]"
+    if not isinstance(entry, dict):
+        raise BaselineError(f"{where}: must be an object")
+    metrics = entry.get("metrics")
+    if not isinstance(metrics, dict):
+        raise BaselineError(f"{where}.metrics: missing or not an object")
+    for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
+              "flip_noise_slope"):
+        if not _number(metrics.get(k)):
+            raise BaselineError(f"{where}.metrics.{k}: {_short(metrics.get(k))} is not a finite number or null")
+    pixels = metrics.get("pixels")
+    if not isinstance(pixels, int) or isinstance(pixels, bool) or pixels < 0:
+        raise BaselineError(f"{where}.metrics.pixels: {_short(pixels)} is not a count of pixels")
+    if metrics.get("psnr") is not None and metrics.get("noise_floor_psnr") is None:
+        raise BaselineError(f"{where}.metrics.noise_floor_psnr: null beside a PSNR (the rule needs both)")
+    timings = entry.get("timings")
+    rt = timings.get("realtime_ms") if isinstance(timings, dict) else None
+    if not isinstance(rt, dict) or "total" not in rt or not _number(rt["total"]) or (rt["total"] or 0) < 0:
+        raise BaselineError(f"{where}.timings.realtime_ms.total: missing or not a finite time >= 0")
+    for k in ("identity", "settings"):
+        if not isinstance(entry.get(k, {}), dict):
+            raise BaselineError(f"{where}.{k}: must be an object")
+    if not isinstance(entry.get("identity", {}).get("reference", {}), dict):
+        raise BaselineError(f"{where}.identity.reference: must be an object")
+
+
+# --------------------------------------------------------------------------- output
+
+
+def format_table(results: list[GateResult]) -> str:
+    lines = [f"{'scene':<22} {'result':<6} {'PSNR':>7} {'SSIM':>7} {'FLIP':>7}  checks"]
+    for r in results:
+        def f(key, spec, m=r.metrics):
+            return "-" if m.get(key) is None else format(m[key], spec)
+
+        checks = ", ".join(f"{k}={v:g}" for k, v in r.thresholds.items())
+        if r.baseline:
+            checks = ", ".join(x for x in (checks, f"baseline ({r.baseline})") if x)
+        lines.append(f"{one_line(r.scene, 60):<22} {'PASS' if r.passed else 'FAIL':<6} {f('psnr', '.2f'):>7} "
+                     f"{f('ssim', '.4f'):>7} "
+                     f"{f('flip', '.4f'):>7}  {checks}")
+        if r.deltas:
+            lines.append(f"    {'':<8} {'baseline':>10} {'new':>10} {'delta':>10} {'tolerance':>10}")
+            for d in r.deltas:
+                label = {"psnr": "PSNR dB", "ssim": "SSIM", "flip": "FLIP", "time": "frame ms"}[d.metric]
+                delta = "-" if d.delta is None else (f"x{d.delta:.2f}" if d.metric == "time"
+                                                     else _fmt(d.metric, d.delta, True))
+                tol = "-" if d.tolerance is None else (f"x{d.tolerance:g}" if d.metric == "time"
+                                                       else _fmt(d.metric, d.tolerance))
+                lines.append(f"    {label:<8} {_fmt(d.metric, d.baseline):>10} {_fmt(d.metric, d.new):>10} "
+                             f"{delta:>10} {tol:>10}{'  FAIL' if d.failed else ''}")
+        lines += [f"    - {one_line(msg)}" for msg in r.failures]
+    n_fail = sum(not r.passed for r in results)
+    lines.append(f"{len(results) - n_fail} passed, {n_fail} failed")
+    return "\n".join(lines)
+
+
+def warning_lines(results: list[GateResult], baseline: dict | None) -> list[str]:
+    """The `warning:`/`note:` lines of a baseline comparison (identity differences, unused records)."""
+    out = [f"warning: {one_line(r.scene, 60)}: {one_line(w)}" for r in results for w in r.warnings]
+    if baseline is not None:
+        used = {scene_key(r.record["spec"]) for r in results if r.record}
+        unused = [k for k in baseline["scenes"] if k not in used]
+        if unused:
+            out.append(one_line(f"note: {len(unused)} scene(s) of the baseline {baseline['path']} were not gated: "
+                                + ", ".join(unused)))
+    return out
+
+
+def write_junit(path: Path, results: list[GateResult]) -> None:
+    suite = ET.Element("testsuite", name="iblcheck gate", tests=str(len(results)),
+                       failures=str(sum(not r.passed for r in results)), errors="0",
+                       time=f"{sum(r.seconds for r in results):.3f}")
+    for r in results:
+        case = ET.SubElement(suite, "testcase", classname="iblcheck.gate", name=xml_text(r.scene),
+                             time=f"{r.seconds:.3f}")
+        props = ET.SubElement(case, "properties")
+
+        def prop(name: str, value, props=props) -> None:
+            ET.SubElement(props, "property", name=name, value="null" if value is None else f"{value:.6g}")
+
+        for k in ("psnr", "ssim", "flip", "noise_floor_psnr"):
+            prop(k, r.metrics.get(k))
+        if r.baseline:
+            ET.SubElement(props, "property", name="baseline", value=r.baseline)
+        for d in r.deltas:
+            prefix = "frame_ms" if d.metric == "time" else d.metric
+            prop(f"{prefix}.baseline", d.baseline)
+            prop(f"{prefix}.new", d.new)
+            prop(f"{prefix}.ratio" if d.metric == "time" else f"{prefix}.delta", d.delta)
+            prop(f"{prefix}.max_ratio" if d.metric == "time" else f"{prefix}.tolerance", d.tolerance)
+        if r.deltas or r.warnings:
+            out = ET.SubElement(case, "system-out")
+            out.text = "\n".join(xml_text(x) for x in _delta_lines(r) + [f"warning: {w}" for w in r.warnings])
+        if r.failures:
+            kind = "MissingBaseline" if r.baseline == "missing" else "ImageQuality"
+            fail = ET.SubElement(case, "failure", message=xml_text("; ".join(r.failures)), type=kind)
+            fail.text = "\n".join(xml_text(f) for f in r.failures)
+    root = ET.Element("testsuites", name="iblcheck")
+    root.append(suite)
+    from experiments.publish.outputs import write_bytes
+
+    write_bytes(path, ET.tostring(root, encoding="utf-8", xml_declaration=True))
+
+
+def _delta_lines(r: GateResult) -> list[str]:
+    out = []
+    for d in r.deltas:
+        if d.metric == "time":
+            ratio = "-" if d.delta is None else f"x{d.delta:.2f}"
+            out.append(f"frame ms: baseline {_fmt('time', d.baseline)}, new {_fmt('time', d.new)}, ratio {ratio}"
+                       + ("" if d.tolerance is None else f", max x{d.tolerance:g}") + (" FAIL" if d.failed else ""))
+        else:
+            out.append(f"{d.metric}: baseline {_fmt(d.metric, d.baseline)}, new {_fmt(d.metric, d.new)}, "
+                       f"delta {_fmt(d.metric, d.delta, True)}, tolerance {_fmt(d.metric, d.tolerance)}"
+                       + (" FAIL" if d.failed else ""))
+    return out
+
+
+def markdown(results: list[GateResult], baseline: dict | None = None) -> str:
+    """A short Markdown summary for a pull-request comment: one row per scene, each metric as
+    `baseline → new (delta)` when compared with a baseline; failures and warnings below."""
+    n_fail = sum(not r.passed for r in results)
+    head = f"### iblcheck gate: {n_fail} failed, {len(results) - n_fail} passed"
+    if baseline is not None:
+        head += f" against the baseline {md_cell(Path(baseline['path']).name)}"
+    lines = [head, "", "| scene | result | PSNR dB | SSIM | FLIP | frame ms |", "|---|---|--:|--:|--:|--:|"]
+    for r in results:
+        by = {d.metric: d for d in r.deltas}
+        cells = []
+        for metric in ("psnr", "ssim", "flip", "time"):
+            d = by.get(metric)
+            value = r.metrics.get(metric) if metric != "time" else (r.metrics.get("realtime_ms") or {}).get("total")
+            if d is None:
+                cells.append(_fmt(metric, value))
+                continue
+            if metric == "time":
+                change = "-" if d.delta is None else f"x{d.delta:.2f}"
+            else:
+                change = _fmt(metric, d.delta, True)
+            mark = " **✗**" if d.failed else ""
+            cells.append(f"{_fmt(metric, d.baseline)} → {_fmt(metric, d.new)} ({change}){mark}")
+        status = "**FAIL**" if not r.passed else "pass"
+        if r.baseline == "missing":
+            status += " (not in baseline)"
+        lines.append(f"| {md_cell(one_line(r.scene, 80))} | {status} | " + " | ".join(cells) + " |")
+    notes = [f"- {md_cell(one_line(r.scene, 80))}: {md_cell(f)}" for r in results for f in r.failures]
+    notes += [f"- warning: {md_cell(one_line(r.scene, 80))}: {md_cell(w)}" for r in results for w in r.warnings]
+    if notes:
+        lines += ["", *notes]
+    return "\n".join(lines) + "\n"
+
+
+def write_markdown(path: Path, results: list[GateResult], baseline: dict | None = None) -> None:
+    from experiments.publish.outputs import write_text
+
+    write_text(path, markdown(results, baseline))

@@ -1,0 +1,163 @@
+"""The reference cache: rendered references keyed by everything that changes them, and nothing else.
+
+Location: `$IBLCHECK_CACHE`, default `~/.cache/iblcheck`; one entry per key, `<key>.npz`.
+
+- Key (`reference_key`): SHA-256 of a canonical JSON of the reference-relevant content: the
+  environment's radiance bytes (so the file's bytes, scale and builtin parameters), its rotation,
+  the camera, every object's mesh arrays and material, the reference settings (spp, seed,
+  integrator as resolved, model, max_depth), the Mitsuba variant and version, and the plugin
+  version. Real-time settings and tone mapping are not in it: a LOD bias or face size hits the
+  same entry.
+- Writes are atomic: a temporary file in the same folder, then `os.replace`. Each entry holds a
+  SHA-256 of its arrays and metadata, checked on read; a corrupt entry is reported and re-rendered.
+- Two processes rendering the same key: an advisory lock (`<key>.lock`, fcntl) makes the second
+  wait and then read the first one's entry; without locking support both render and the last
+  rename wins, still leaving one valid entry.
+- A cache folder that cannot be written (read-only, full) is a warning, never a lost render.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import io
+import json
+import os
+import tempfile
+import warnings
+from collections.abc import Iterator
+from pathlib import Path
+
+import numpy as np
+
+
+class CacheWarning(UserWarning):
+    """The cache could not be used as intended (corrupt entry, unwritable folder); the render goes on."""
+
+
+def cache_dir() -> Path:
+    return Path(os.environ.get("IBLCHECK_CACHE") or Path.home() / ".cache" / "iblcheck")
+
+
+def _digest_array(h, a: np.ndarray) -> None:
+    a = np.ascontiguousarray(a)
+    h.update(f"{a.dtype.str}{a.shape}".encode())
+    h.update(a.tobytes())
+
+
+def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mitsuba_version: str,
+                  plugin_version: int, integrator: str) -> str:
+    """Hex SHA-256 over what changes a reference (see the module docstring)."""
+    h = hashlib.sha256()
+    _digest_array(h, env)
+    cam = scene.camera
+    ref = scene.reference
+    desc = {
+        "kind": "reference",
+        "env_rotation_deg": scene.environment.rotation_deg,
+        "camera": [list(cam.origin), list(cam.target), list(cam.up), cam.fov_deg, cam.width, cam.height],
+        "materials": [list(vars_of(o.material).items()) for o in scene.objects],
+        "spp": int(spp), "seed": int(seed), "integrator": integrator, "model": ref.model,
+        "max_depth": ref.max_depth if integrator == "path" else 2,
+        "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
+    }
+    if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
+        from scenes.environment.light_array import LIGHT_ARRAY_VERSION
+
+        desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count,
+                            LIGHT_ARRAY_VERSION]
+    h.update(json.dumps(desc, sort_keys=True).encode())
+    for obj in scene.objects:
+        for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):
+            _digest_array(h, arr)
+    return h.hexdigest()
+
+
+def vars_of(material) -> dict:
+    """The material fields that matter to its type (an unused kd must not split the cache)."""
+    from scenes.model import materials
+
+    return materials.used_fields(material)
+
+
+def _checksum(rgb: np.ndarray, mask: np.ndarray, meta_json: str) -> str:
+    h = hashlib.sha256()
+    _digest_array(h, rgb)
+    _digest_array(h, mask)
+    h.update(meta_json.encode())
+    return h.hexdigest()
+
+
+def load(key: str) -> tuple[np.ndarray, np.ndarray, dict] | None:
+    """(rgb, mask, meta) of a valid entry; None when missing. A corrupt entry warns and returns None."""
+    path = cache_dir() / f"{key}.npz"
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            rgb, mask = z["rgb"], z["mask"]
+            meta_json, stored = str(z["meta"]), str(z["checksum"])
+        if _checksum(rgb, mask, meta_json) != stored:
+            raise ValueError("checksum mismatch")
+        return rgb, mask, json.loads(meta_json)
+    except Exception as exc:  # any unreadable entry (truncated zip, bad checksum, ...) is re-rendered
+        warnings.warn(f"reference cache entry {path} is corrupt ({exc}); re-rendering it", CacheWarning,
+                      stacklevel=2)
+        return None
+
+
+def store(key: str, rgb: np.ndarray, mask: np.ndarray, meta: dict) -> bool:
+    """Write an entry atomically; False (with a warning) when the folder cannot be written."""
+    folder = cache_dir()
+    meta_json = json.dumps(meta, sort_keys=True)
+    try:
+        write_npz(folder, key, rgb=rgb, mask=mask, meta=np.array(meta_json),
+                  checksum=np.array(_checksum(rgb, mask, meta_json)))
+        return True
+    except OSError as exc:
+        warnings.warn(f"reference cache {folder} cannot be written ({exc.strerror or exc}); "
+                      "the render is returned but not cached", CacheWarning, stacklevel=2)
+        return False
+
+
+def write_npz(folder: Path, key: str, **arrays: np.ndarray) -> None:
+    """`folder/key.npz` written atomically (a temporary file in the same folder, fsync, rename): readers
+    see the old entry or the whole new one, never part of it. Raises OSError (the temporary file is
+    removed). Shared by the reference cache and the PRT cache (realtime/techniques/prt/prt_transfer.py)."""
+    buf = io.BytesIO()
+    np.savez(buf, **arrays)
+    folder.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(buf.getvalue())
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, folder / f"{key}.npz")
+    except OSError:
+        with contextlib.suppress(OSError):
+            os.unlink(tmp)
+        raise
+
+
+@contextlib.contextmanager
+def locked(key: str) -> Iterator[None]:
+    """Hold an exclusive advisory lock for `key` while rendering it (no-op where locks are unavailable)."""
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover (Windows)
+        yield
+        return
+    folder = cache_dir()
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(folder / f"{key}.lock", os.O_RDWR | os.O_CREAT, 0o644)
+    except OSError:
+        yield  # unwritable cache: nothing to protect
+        return
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        fcntl.flock(fd, fcntl.LOCK_UN)
+        os.close(fd)

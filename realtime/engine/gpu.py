@@ -1,0 +1,304 @@
+"""The paper's method on the GPU (moderngl): per-frame environment filtering and shading.
+
+`EnvironmentFilter` owns the HDR cube map and rebuilds it every frame, as the paper does for
+dynamic lighting: base level from the equirect map (turned about +Y), 2x2 box mip chain written by
+a compute shader (`downsample.comp`, so the filter is exactly the paper's, not the driver's
+choice), SH9 projection of the selected level and the irradiance matrices M (`sh_project.comp`,
+`sh_reduce.comp`). `SceneDrawer` draws the environment behind the objects and shades the objects
+with a program compiled for the scene's effects only.
+
+All textures are 32-bit float: HDR values beyond half-float range (a 1e6 sun) are never stored in
+16-bit formats.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from functools import cache
+from importlib import resources
+
+import moderngl
+import numpy as np
+
+from realtime.engine import levels
+from scenes.environment import cubemap, shbasis
+from scenes.environment.directions import direction_to_uv, rotation_y
+from scenes.model import materials
+
+_INCLUDE = re.compile(r'^#include "([\w.]+)"\s*$', re.M)
+
+
+@cache
+def shader_text(name: str) -> str:
+    return resources.files("realtime").joinpath(f"shaders/{name}").read_text()
+
+
+def shader_source(name: str, defines: tuple[str, ...] = ()) -> str:
+    """A shader's text with `#include "file"` expanded (recursively) and `#define`s inserted after
+    #version. A define is "NAME" or "NAME VALUE"."""
+    text = shader_text(name)
+    for _ in range(8):  # includes nest a few levels at most
+        text, n = _INCLUDE.subn(lambda m: shader_text(m.group(1)), text)
+        if not n:
+            break
+    head, _, rest = text.partition("\n")
+    return head + "\n" + "".join(f"#define {d}\n" for d in defines) + rest
+
+
+def mat_bytes(m: np.ndarray) -> bytes:
+    """A numpy (row-major) matrix as a GLSL (column-major) uniform."""
+    return np.ascontiguousarray(np.asarray(m, dtype=np.float64).T, dtype="f4").tobytes()
+
+
+def world_to_env(rotation_deg: float) -> np.ndarray:
+    return rotation_y(rotation_deg).T  # inverse of the environment's to_world rotation
+
+
+def fill_from_equirect(ctx: moderngl.Context, prog, env_tex, texel_uv, target, size: int, layers: int,
+                       rotation_deg: float) -> None:
+    """Level 0 of an environment store (cube faces or 2D map layers) from the equirect map turned by
+    `rotation_deg` about +Y: a turn only shifts the map's u, so each texel's precomputed (u, v) in
+    `texel_uv` plus the shift gives its lookup (env_to_cube.comp, map_fill.comp)."""
+    env_tex.use(0)
+    texel_uv.use(1)
+    prog["env"] = 0
+    prog["texel_uv"] = 1
+    prog["u_shift"] = (rotation_deg / 360.0) % 1.0
+    prog["size"] = size
+    target.bind_to_image(0, read=False, write=True, level=0)
+    prog.run(groups(size), groups(size), layers)
+    ctx.memory_barrier()
+
+
+def groups(n: int, local: int = 8) -> int:
+    return (n + local - 1) // local
+
+
+class EnvironmentFilter:
+    """HDR cube map + mip chain + SH9 of one environment, refiltered on demand.
+
+    The `cube` environment store; realtime/engine/environment_maps.py has the others, with the same API."""
+
+    parameterization = "cube"
+
+    def __init__(self, ctx: moderngl.Context, env: np.ndarray, base_size: int) -> None:
+        self.ctx = ctx
+        self.base_size = base_size
+        self.n_levels = int(math.log2(base_size)) + 1
+        h, w = env.shape[:2]
+        self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
+        self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
+        self.cube = ctx.texture_cube((base_size, base_size), 4, dtype="f4")
+        self.cube.build_mipmaps()  # allocates every level; their contents are written below
+        self.cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+        self.fill_prog = ctx.compute_shader(shader_source("env_to_cube.comp"))
+        self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
+        self.sh_prog = self.reduce_prog = None  # the SH9 programs, compiled on the first project_sh
+        u, v = direction_to_uv(cubemap.texel_directions(base_size))
+        uv = np.stack([u, v], axis=-1).reshape(6 * base_size, base_size, 2).astype("f4")
+        self.texel_uv = ctx.texture((base_size, 6 * base_size), 2, uv.tobytes(), dtype="f4")
+        self.texel_uv.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
+        self._solid_angle: dict[int, moderngl.Texture] = {}
+        self._partials: dict[int, moderngl.Buffer] = {}
+
+    # -- per-frame work --------------------------------------------------------------------
+    def fill_base(self, rotation_deg: float) -> None:
+        fill_from_equirect(self.ctx, self.fill_prog, self.env_tex, self.texel_uv, self.cube, self.base_size, 6,
+                           rotation_deg)
+
+    def build_chain(self, down_to_level: int | None = None) -> None:
+        """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""
+        last = self.n_levels - 1 if down_to_level is None else down_to_level
+        for level in range(1, last + 1):
+            size = self.base_size >> level
+            self.cube.bind_to_image(0, read=True, write=False, level=level - 1)
+            self.cube.bind_to_image(1, read=False, write=True, level=level)
+            self.down_prog["dst_size"] = size
+            self.down_prog.run(groups(size), groups(size), 6)
+            self.ctx.memory_barrier()
+
+    def project_sh(self, face_size: int, window=(1.0, 1.0, 1.0)) -> None:
+        """The paper's SH9 of the level of `face_size` and its matrices M, into `sh_buffer`."""
+        if self.sh_prog is None:  # compiled only for scenes whose diffuse technique is SH9
+            self.sh_prog = self.ctx.compute_shader(shader_source("sh_project.comp", sh9_defines()))
+            self.reduce_prog = self.ctx.compute_shader(shader_source("sh_reduce.comp", sh9_defines()))
+        level = levels.level_of(face_size, self.base_size)
+        block = max(1, min(4, face_size // 8))  # texels per invocation along each axis
+        tiles = groups(face_size, 8 * block)
+        n_groups = 6 * tiles * tiles
+        partial = self._partials.get(face_size)
+        if partial is None:
+            partial = self._partials[face_size] = self.ctx.buffer(reserve=n_groups * 9 * 16)
+        tex = self._solid_angle.get(face_size)
+        if tex is None:
+            omega = cubemap.texel_solid_angles(face_size).astype("f4")
+            tex = self.ctx.texture((face_size, face_size), 1, omega.tobytes(), dtype="f4")
+            self._solid_angle[face_size] = tex
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.cube.bind_to_image(0, read=True, write=False, level=level)
+        tex.use(1)
+        self.sh_prog["solid_angle"] = 1
+        self.sh_prog["size"] = face_size
+        self.sh_prog["block"] = block
+        partial.bind_to_storage_buffer(1)
+        self.sh_prog.run(tiles, tiles, 6)
+        self.ctx.memory_barrier()
+        self.reduce_prog["n_groups"] = n_groups
+        self.reduce_prog["window"].write(np.asarray(window, dtype="f4").tobytes())
+        self.sh_buffer.bind_to_storage_buffer(2)
+        self.reduce_prog.run(1, 1, 1)
+        self.ctx.memory_barrier()
+
+    # -- the glossy lookup (glossy_box.glsl reads env_cube) ----------------------------------
+    def lookup_defines(self) -> tuple[str, ...]:
+        return ()
+
+    def bind_lookup(self, prog: moderngl.Program, unit: int) -> None:
+        self.cube.use(unit)
+        _set(prog, "env_cube", unit)
+
+    def meta(self) -> dict:
+        return {"environment_store": {"parameterization": "cube", "face_size": self.base_size, "layers": 6,
+                                      "texels": 6 * self.base_size ** 2}}
+
+    # -- read-backs (tests, meta) -----------------------------------------------------------
+    def read_sh(self) -> tuple[np.ndarray, np.ndarray]:
+        """(coeffs (9, 3), M (3, 4, 4)) as last computed on the GPU."""
+        data = np.frombuffer(self.sh_buffer.read(), dtype="f4")
+        M = data[:48].reshape(3, 4, 4).transpose(0, 2, 1)  # column-major storage
+        coeffs = data[48:].reshape(9, 4)[:, :3]
+        return coeffs.astype(np.float64), M.astype(np.float64)
+
+    def read_level(self, level: int) -> np.ndarray:
+        """Faces (6, s, s, 3) of one mip level."""
+        size = self.base_size >> level
+        prog = self.ctx.compute_shader(shader_source("dump_level.comp"))
+        out = self.ctx.buffer(reserve=6 * size * size * 16)
+        self.cube.bind_to_image(0, read=True, write=False, level=level)
+        out.bind_to_storage_buffer(3)
+        prog["size"] = size
+        prog.run(groups(size), groups(size), 6)
+        self.ctx.memory_barrier()
+        arr = np.frombuffer(out.read(), dtype="f4").reshape(6, size, size, 4)[..., :3].copy()
+        out.release()
+        prog.release()
+        return arr
+
+    def release(self) -> None:
+        for obj in [self.env_tex, self.texel_uv, self.cube, self.fill_prog, self.down_prog, self.sh_prog,
+                    self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
+            if obj is not None:
+                obj.release()
+
+
+def sh9_defines() -> tuple[str, ...]:
+    """The SH9 basis constants (scenes/environment/shbasis.py) and the paper's c1..c5 (realtime/engine/sh.py) as
+    #defines: the constants live once, in Python."""
+    from realtime.engine import sh
+
+    basis = (f"SH_C{i} {c!r}" for i, c in enumerate((shbasis.C0, shbasis.C1, shbasis.C2, shbasis.C3, shbasis.C4)))
+    paper = (f"SH_M{i} {c!r}" for i, c in enumerate((sh.C1, sh.C2, sh.C3, sh.C4, sh.C5), start=1))
+    return (*basis, *paper)
+
+
+class SceneDrawer:
+    """Draws the environment background and the scene's objects into a float32 RGBA target, with a
+    shading program compiled for the scene's effects and techniques only."""
+
+    def __init__(self, ctx: moderngl.Context, scene, env_filter: EnvironmentFilter, techniques=()) -> None:
+        self.ctx = ctx
+        self.scene = scene
+        self.filter = env_filter
+        self.techniques = list(techniques)
+        cam = scene.camera
+        self.width, self.height = cam.width, cam.height
+        effects = tuple(f"HAS_{e.upper()}" for e in ("diffuse", "glossy", "fresnel") if e in scene.effects)
+        extra = tuple(d for t in self.techniques for d in t.defines())
+        # realtime.reflection = "per_vertex": the mirror direction is computed in shade.vert and interpolated
+        per_vertex = scene.realtime.reflection == "per_vertex" and "glossy" in scene.effects
+        reflection = ("REFLECTION_PER_VERTEX",) if per_vertex else ()
+        self.defines = effects + extra + reflection + materials.glsl_defines()
+        self.prog = ctx.program(vertex_shader=shader_source("shade.vert", self.defines),
+                                fragment_shader=shader_source("shade.frag", self.defines))
+        self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
+                                   fragment_shader=shader_source("background.frag"))
+        self.bg_vao = ctx.vertex_array(self.bg_prog, [])
+        self.color = ctx.texture((self.width, self.height), 4, dtype="f4")
+        self.depth = ctx.depth_renderbuffer((self.width, self.height))
+        self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        self.objects = []
+        for obj in scene.objects:
+            mesh = obj.mesh
+            vbo = ctx.buffer(np.hstack([mesh.positions, mesh.normals]).astype("f4").tobytes())
+            ibo = ctx.buffer(mesh.indices.astype("i4").tobytes())
+            vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f", "in_position", "in_normal")], index_buffer=ibo)
+            self.objects.append((obj, vbo, ibo, vao))
+        near, far = self._depth_range()
+        self.view_proj = cam.projection_matrix(near, far) @ cam.view_matrix()
+
+    def _depth_range(self) -> tuple[float, float]:
+        origin = np.asarray(self.scene.camera.origin, dtype=np.float64)
+        far = 1.0
+        for obj in self.scene.objects:
+            d = np.linalg.norm(obj.mesh.positions.astype(np.float64) - origin, axis=1)
+            far = max(far, float(d.max()))
+        return far * 1e-4, far * 1.01
+
+    def draw_background(self, rotation_deg: float) -> None:
+        """Clear the target and draw the environment behind everything (alpha 0 = not covered).
+
+        Not part of the method under test (and masked out of metrics): timed as `background`."""
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.viewport = (0, 0, self.width, self.height)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.filter.env_tex.use(0)
+        self.bg_prog["env"] = 0
+        self.bg_prog["inv_view_proj"].write(mat_bytes(np.linalg.inv(self.view_proj)))
+        self.bg_prog["world_to_env"].write(mat_bytes(world_to_env(rotation_deg)))
+        self.bg_vao.render(moderngl.TRIANGLES, vertices=3)
+
+    def draw(self) -> None:
+        """The shading pass: every object, depth-tested (`draw`)."""
+        ctx = self.ctx
+        self.fbo.use()
+        ctx.viewport = (0, 0, self.width, self.height)
+        ctx.enable(moderngl.DEPTH_TEST)
+        p = self.prog
+        for t in self.techniques:
+            t.bind(p)
+        p["view_proj"].write(mat_bytes(self.view_proj))
+        _set(p, "camera_position", tuple(self.scene.camera.origin))
+        for obj, _, _, vao in self.objects:
+            m = obj.material
+            _set(p, "material_type", materials.of(m).code)
+            _set(p, "kd", m.kd)
+            _set(p, "ks", m.ks)
+            _set(p, "f0", m.f0)
+            _set(p, "two_sided", int(m.two_sided))
+            for t in self.techniques:
+                t.bind_object(p, obj)
+            vao.render(moderngl.TRIANGLES)
+
+    def read(self) -> tuple[np.ndarray, np.ndarray]:
+        """(rgb (H, W, 3) float32, mask (H, W) bool), row 0 at the top."""
+        data = np.frombuffer(self.fbo.read(components=4, dtype="f4"), dtype="f4")
+        img = data.reshape(self.height, self.width, 4)[::-1]  # OpenGL row 0 is the bottom
+        return np.ascontiguousarray(img[..., :3]), img[..., 3] > 0.5
+
+    def release(self) -> None:
+        for _, vbo, ibo, vao in self.objects:
+            vao.release()
+            vbo.release()
+            ibo.release()
+        for r in [self.prog, self.bg_prog, self.bg_vao, self.color, self.depth, self.fbo]:
+            r.release()
+
+
+def _set(prog: moderngl.Program, name: str, value) -> None:
+    """Set a uniform if the compiled program kept it (unused ones are optimised away)."""
+    if name in prog:
+        prog[name] = value

@@ -1,0 +1,1 @@
+"""irradiance_map"""

@@ -1,0 +1,129 @@
+"""Precomputed radiance transfer (Sloan, Kautz & Snyder 2002) for diffuse surfaces:
+`realtime.diffuse = "prt"`, `occlusion = "prt"`, `interreflection = "prt"`, `[realtime.prt] order, rays, bounces`.
+
+Once per scene (`precompute`, cached on disk): every vertex's transfer vector T
+(realtime/techniques/prt/prt_transfer.py,
+visibility rays through Embree) of SH `order`, per colour channel:
+    unshadowed (diffuse = "prt" alone):   T_k = A_l Y_k(n)                 (exactly SH irradiance)
+    shadowed (+ occlusion = "prt"):       the cosine lobe times visibility
+    interreflected (+ interreflection):   plus `bounces` diffuse bounces off the other surfaces
+Every frame (`filter`, as the paper's SH projection): the environment's SH coefficients of the selected
+mip level (sh_project_n.comp, the same projection `diffuse = "sh"` uses, unwindowed); the shading pass
+dots them with each vertex's T (shade.vert) and interpolates E across the triangle. All the cost is in
+the precomputation; per frame it is a (order + 1)^2 dot product per vertex.
+
+The transfer is the front side's: scenes refuse PRT on two-sided materials (scenes/model/scene.py), and bounces
+gather only light leaving front faces, with the object's kd as its albedo (a blend's Fresnel weight
+(1 - F) on its diffuse light and its glossy bounces are not in the transfer: "glossy interreflection").
+Only the diffuse lobe is transferred: a blend material's glossy term is the paper's (or the prefiltered)
+environment lookup, unshadowed, and `unsimulated_effects` says "glossy occlusion".
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from realtime.engine.technique import NO_CUBE, Frame, Technique
+from scenes.environment import shbasis
+
+TRANSFER_BINDING = 7
+
+
+def transfer_objects(scene) -> list:
+    """The scene's objects as the precomputation's input (world-space arrays, each object's kd)."""
+    from realtime.techniques.prt.prt_transfer import TransferObject
+
+    return [TransferObject(o.mesh.positions.astype(np.float64), o.mesh.normals.astype(np.float64), o.mesh.indices,
+                           tuple(float(c) for c in o.material.kd), bool(o.material.two_sided))
+            for o in scene.objects]
+
+
+class PrtDiffuse(Technique):
+    effect = "diffuse"
+    name = "prt"
+    simulates = frozenset({"diffuse"})
+    timing_key = "filter"  # this frame's SH projection, like the paper's SH9
+    reads = ("realtime.prt.order",)
+    axes = {"realtime.prt.order": (2, 3, 4)}
+
+    def __init__(self, frame: Frame) -> None:
+        super().__init__(frame)
+        rt = frame.scene.realtime
+        self.order = rt.prt.order
+        self.shadowed = rt.occlusion == "prt"
+        self.bounces = rt.prt.bounces if rt.interreflection == "prt" else 0
+        self.rays = rt.prt.rays if self.shadowed else 0
+        self.projector = None
+        self.buffers: dict[int, moderngl.Buffer] = {}
+        self.info: dict = {}
+
+    def prepare(self, frame: Frame) -> None:
+        from realtime.techniques.prt.prt_transfer import cached_transfer
+
+        transfers, self.info = cached_transfer(transfer_objects(frame.scene), self.order, max(self.rays, 1),
+                                               self.bounces, self.shadowed, progress=True)
+        for i, t in enumerate(transfers):
+            self.buffers[i] = frame.ctx.buffer(np.ascontiguousarray(t, dtype="f4").tobytes())
+        if frame.scene.realtime.parameterization == "cube":
+            from realtime.engine.sh_orders import ShProjector
+
+            self.projector = ShProjector(frame.ctx, self.order)
+        else:
+            from realtime.engine.environment_maps import MapShProjector
+
+            self.projector = MapShProjector(frame.ctx, self.order)
+
+    def update(self, frame: Frame) -> None:
+        window = np.ones(self.order + 1)  # the transfer is exact: no deringing window
+        if frame.env_filter.parameterization != "cube":
+            self.projector.run(frame.env_filter, frame.level, frame.face_size, window)
+        else:
+            self.projector.run(frame.env_filter.cube, frame.level, frame.face_size, window)
+
+    def defines(self) -> tuple[str, ...]:
+        return ("DIFFUSE_PRT", *shbasis.glsl_defines(self.order))
+
+    def bind(self, prog: moderngl.Program) -> None:
+        self.projector.buffer.bind_to_storage_buffer(2)
+
+    def bind_object(self, prog: moderngl.Program, obj) -> None:
+        index = next(i for i, o in enumerate(self.frame.scene.objects) if o is obj)
+        self.buffers[index].bind_to_storage_buffer(TRANSFER_BINDING)
+
+    def meta(self) -> dict:
+        return {"prt": {"order": self.order, "shadowed": self.shadowed, "bounces": self.bounces,
+                        "rays": self.rays, **{k: v for k, v in self.info.items() if k != "key"},
+                        "cache_key": self.info.get("key")}}
+
+    def release(self) -> None:
+        for b in self.buffers.values():
+            b.release()
+        if self.projector is not None:
+            self.projector.release()
+
+
+class PrtOcclusion(Technique):
+    """`occlusion = "prt"`: the visibility lives in PrtDiffuse's transfer; this marks the effect."""
+
+    effect = "occlusion"
+    name = "prt"
+    simulates = frozenset({"occlusion"})
+    reads = ("realtime.prt.rays",)
+    axes = {"realtime.prt.rays": (64, 256, 1024)}
+
+    @classmethod
+    def covers(cls, lobe: str, scene) -> bool:
+        return lobe == "diffuse"
+
+    def chain_level(self, frame: Frame) -> int | None:
+        return NO_CUBE  # the transfer is read by PrtDiffuse, which reads the cube
+
+
+class PrtInterreflection(PrtOcclusion):
+    """`interreflection = "prt"`: the bounces live in PrtDiffuse's transfer; this marks the effect."""
+
+    effect = "interreflection"
+    simulates = frozenset({"interreflection"})
+    reads = ("realtime.prt.bounces",)
+    axes = {"realtime.prt.bounces": (1, 2)}

@@ -1,0 +1,419 @@
+"""Precomputed radiance transfer for diffuse surfaces: the pure numpy + Embree half (no OpenGL)
+(design.md section 9, `diffuse = "prt"`, `occlusion = "prt"`, `interreflection = "prt"`).
+
+Sloan, Kautz & Snyder 2002, "Precomputed radiance transfer for real-time rendering in dynamic,
+low-frequency lighting environments" (SIGGRAPH 2002), section 5 (diffuse transfer): per vertex a
+transfer vector T so that, with L the environment's SH coefficients (`scenes.environment.shbasis.sh_basis`
+convention, as `realtime.engine.sh.project_equirect` computes them), the irradiance of channel c is
+
+    E_c(v) = sum_k L_{k,c} T_{v,k,c}.
+
+T is irradiance transfer (no albedo of the receiver in it: the shader multiplies by its own kd / pi).
+
+Unshadowed (cosine only), exact, no Monte Carlo: T_k(x) = A_l Y_k(n(x)), with A_l the clamped-cosine
+band factors of Ramamoorthi & Hanrahan 2001 (eq. 8-9, `COSINE_BAND_FACTORS`), the same for the three
+channels. So PRT without shadows is SH irradiance (R&H 2001) to float precision.
+
+Shadowed, with the unshadowed transfer as a control variate (only the occluded part is estimated):
+
+    T_k(x) = A_l Y_k(n) - (pi / R) sum_j Y_k(w_j) (1 - V_j)
+
+where w_j are R directions on the hemisphere about n with density cos / pi (so that
+int Y_k cos (1 - V) dw = E[pi Y_k (1 - V)]), and V_j = 1 when the ray from x + eps n escapes every
+object (any hit, front or back face, blocks it). Directions: a Fibonacci lattice of R points in the
+unit square, ((j + 1/2) / R, frac(j / phi)), shifted per vertex by a random Cranley-Patterson
+rotation (Cranley & Patterson 1976; seeded by `seed`: deterministic, and unbiased), mapped to the
+cosine-weighted hemisphere by r = sqrt(u1), phi = 2 pi u2 (Malley's method), in the frame of
+Duff et al. 2017 ("Building an orthonormal basis, revisited", JCGT 6(1)). eps = EPSILON_FRACTION x the
+diagonal of the bounding box of all objects. A vertex none of whose rays hit gets exactly the
+unshadowed transfer (subtracting nothing): a convex object with outward normals is bit for bit its
+unshadowed transfer, since the tangent plane of n supports it.
+
+Interreflected (bounces >= 1, needs shadowed): Sloan's iterative gathering over the same rays:
+
+    T^0 = the shadowed transfer,
+    T^b(x) = (1 / R) sum_{j: ray j hits a front face at y_j} kd(y_j) (.) T^{b-1}(y_j),
+    T = sum_{b=0..bounces} T^b.
+
+Derivation: the Lambertian radiance leaving y is kd(y) / pi E(y); the irradiance it gives x is
+int kd/pi E(y) cos dw, estimated with density cos / pi as (1 / R) sum kd E(y_j) (the pi's cancel).
+T^{b-1}(y) is interpolated barycentrically from the hit triangle's vertices; kd(y) is the hit
+object's albedo per channel. A ray that hits a back face (direction . geometric face normal >= 0,
+winding counter-clockwise seen from the front) gathers 0. For a one-sided object that is right (its
+back is black in both renderers). For a two_sided object it is a KNOWN LIMITATION: the light leaving
+its back would need the transfer for the flipped normal, which is not computed; so `two_sided` only
+enters the cache key. The hits (object, triangle, barycentrics) are found once, stored as one sparse
+gather matrix G (V x V, G[x, i] = sum of barycentric weights / R of the rays from x landing on
+triangles with vertex i), and reused for every bounce: T^b = G (kd (.) T^{b-1}).
+
+Rays: one trimesh.Trimesh of all objects (process=False) and its Embree intersector (embreex; no
+silent slow fallback: RuntimeError without it), first hits via `intersects_first` (Embree's
+watertight test; the hit point for the barycentrics is the ray / face-plane intersection in float64,
+barycentrics by `trimesh.triangles.points_to_barycentric`, clamped to the triangle). Vertices go in
+chunks of at most MAX_RAYS_PER_CHUNK rays (bounded memory, for the SH evaluation of the occluded
+directions too).
+
+Cache (`cached_transfer`): `groundtruth.pathtracer.reference_cache.cache_dir() / "prt" / "<key>.npz"`, key = SHA-256 of
+every object's positions / normals / indices (dtype, shape, bytes), kd, two_sided, order, rays,
+bounces, shadowed, seed and TRANSFER_VERSION. Atomic writes (temporary file + os.replace), a SHA-256 of
+the arrays in each entry checked on read; a corrupt entry is recomputed with a CacheWarning, an
+unwritable folder is a CacheWarning and the transfer is returned uncached.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import json
+import math
+import sys
+import time
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
+
+#: bump when the transfer computed for the same inputs changes (invalidates the cache)
+TRANSFER_VERSION = 1
+#: ray origins are offset along the normal by this fraction of the scene's bounding-box diagonal
+EPSILON_FRACTION = 1e-4
+#: the most rays traced (and SH-evaluated) at once
+MAX_RAYS_PER_CHUNK = 1 << 19
+#: supported SH orders (COSINE_BAND_FACTORS has bands 0..4; the GLSL evaluation starts at order 2)
+MIN_ORDER, MAX_ORDER = 2, len(COSINE_BAND_FACTORS) - 1
+_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 1 / phi
+
+
+@dataclass(frozen=True, eq=False)  # eq=False: arrays have no truth value (as scenes.geometry.meshes.Mesh)
+class TransferObject:
+    positions: np.ndarray  # (V, 3) world space
+    normals: np.ndarray  # (V, 3) unit (per-vertex shading normals)
+    indices: np.ndarray  # (T, 3) int, counter-clockwise seen from the front
+    kd: tuple[float, float, float]  # diffuse albedo (RGB) of the object (for bounces)
+    two_sided: bool = False
+
+
+@dataclass(frozen=True)
+class _Checked:
+    positions: np.ndarray  # (V, 3) float64
+    normals: np.ndarray  # (V, 3) float64, unit
+    indices: np.ndarray  # (T, 3) int64
+    kd: np.ndarray  # (3,) float64
+
+
+def _check_object(i: int, obj: TransferObject) -> _Checked:
+    what = f"PRT object {i}"
+    p = np.asarray(obj.positions, dtype=np.float64)
+    n = np.asarray(obj.normals, dtype=np.float64)
+    idx = np.asarray(obj.indices)
+    kd = np.asarray(obj.kd, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
+        raise ValueError(f"{what}: positions must be (V, 3) with V > 0, got shape {p.shape}")
+    if n.shape != p.shape:
+        raise ValueError(f"{what}: normals have shape {n.shape}, positions {p.shape}")
+    if idx.ndim != 2 or idx.shape[1] != 3 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
+        raise ValueError(f"{what}: indices must be (T, 3) integers, got shape {idx.shape} {idx.dtype}")
+    if kd.shape != (3,):
+        raise ValueError(f"{what}: kd must be 3 values (RGB), got shape {kd.shape}")
+    for name, a in (("positions", p), ("normals", n), ("kd", kd)):
+        if not np.isfinite(a).all():
+            raise ValueError(f"{what}: {name} contain NaN or Inf")
+    idx = idx.astype(np.int64)
+    if idx.size and (idx.min() < 0 or idx.max() >= len(p)):
+        raise ValueError(f"{what}: triangle indices out of range (0..{len(p) - 1})")
+    length = np.linalg.norm(n, axis=1)
+    if (length < 1e-6).any():
+        raise ValueError(f"{what}: {(length < 1e-6).sum()} normals have zero length")
+    return _Checked(p, n / length[:, None], idx, kd)
+
+
+def _check_settings(order: int, rays: int, bounces: int, shadowed: bool) -> None:
+    if not MIN_ORDER <= order <= MAX_ORDER:
+        raise ValueError(f"PRT order must be {MIN_ORDER}..{MAX_ORDER} (the clamped-cosine factors go to band "
+                         f"{MAX_ORDER}), got {order}")
+    if shadowed and rays < 1:
+        raise ValueError(f"PRT rays must be >= 1, got {rays}")
+    if bounces < 0:
+        raise ValueError(f"PRT bounces must be >= 0, got {bounces}")
+    if bounces and not shadowed:
+        raise ValueError(f"PRT bounces = {bounces} needs shadowed transfer (interreflection gathers over the "
+                         "visibility rays)")
+
+
+def _unshadowed(normals: np.ndarray, order: int) -> np.ndarray:
+    """A_l Y_k(n): (V, K) float64."""
+    return sh_basis(normals, order) * COSINE_BAND_FACTORS[band_of(order)]
+
+
+def _frames(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent and bitangent of unit normals n (V, 3) (Duff et al. 2017), each (V, 3)."""
+    x, y, z = n[:, 0], n[:, 1], n[:, 2]
+    s = np.where(z >= 0.0, 1.0, -1.0)
+    a = -1.0 / (s + z)
+    b = x * y * a
+    t = np.stack([1.0 + s * x * x * a, s * b, -s * x], axis=1)
+    bt = np.stack([b, s + y * y * a, -y], axis=1)
+    return t, bt
+
+
+def _lattice(rays: int) -> np.ndarray:
+    """The Fibonacci lattice of `rays` points in [0, 1)^2: (R, 2)."""
+    j = np.arange(rays, dtype=np.float64)
+    return np.stack([(j + 0.5) / rays, np.mod(j * _GOLDEN, 1.0)], axis=1)
+
+
+def _directions(n: np.ndarray, shifts: np.ndarray, lattice: np.ndarray) -> np.ndarray:
+    """Cosine-weighted directions (V, R, 3) about unit normals n (V, 3): the lattice (R, 2) shifted
+    by each vertex's Cranley-Patterson rotation shifts (V, 2)."""
+    u = np.mod(lattice[None, :, :] + shifts[:, None, :], 1.0)
+    r = np.sqrt(u[..., 0])
+    phi = 2.0 * np.pi * u[..., 1]
+    lx, ly = r * np.cos(phi), r * np.sin(phi)
+    lz = np.sqrt(np.maximum(1.0 - u[..., 0], 0.0))
+    t, bt = _frames(n)
+    return lx[..., None] * t[:, None, :] + ly[..., None] * bt[:, None, :] + lz[..., None] * n[:, None, :]
+
+
+def _intersector(vertices: np.ndarray, faces: np.ndarray):
+    """(trimesh.Trimesh, its Embree intersector); RuntimeError without embreex."""
+    import trimesh
+
+    try:
+        from trimesh.ray import ray_pyembree
+    except ImportError as exc:
+        raise RuntimeError("PRT visibility needs Embree: the embreex package is missing (pip install embreex); "
+                           "there is no slow fallback") from exc
+    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
+    ray = mesh.ray
+    if not isinstance(ray, ray_pyembree.RayMeshIntersector):
+        raise RuntimeError(f"PRT visibility needs Embree, but trimesh gave {type(ray).__module__}."
+                           f"{type(ray).__name__}: the embreex package is missing (pip install embreex)")
+    return mesh, ray
+
+
+def _progress(total: int, enabled: bool):
+    if not enabled:
+        return contextlib.nullcontext(None)
+    from rich import progress as rp
+    from rich.console import Console
+
+    columns = [rp.TextColumn("[bold]prt"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
+               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
+    # on stderr, and only on a terminal: CI logs and pipes never see the bar
+    return rp.Progress(*columns, console=Console(stderr=True), disable=not sys.stderr.isatty())
+
+
+def _trace(objs: list[_Checked], order: int, rays: int, bounces: int, seed: int, progress: bool,
+           base: np.ndarray):
+    """Shadowed transfer (V, K) float64 of all vertices, and the gather matrix (V x V CSR) when bounces > 0."""
+    import trimesh
+    from scipy import sparse
+
+    sizes = [len(o.positions) for o in objs]
+    offsets = np.concatenate([[0], np.cumsum(sizes)])
+    v_total = int(offsets[-1])
+    positions = np.concatenate([o.positions for o in objs])
+    normals = np.concatenate([o.normals for o in objs])
+    faces = np.concatenate([o.indices + off for o, off in zip(objs, offsets[:-1], strict=True)])
+    shadowed = base.copy()
+    gather_rows = []
+    # per-vertex Cranley-Patterson rotations, drawn once for all vertices: chunking does not change them
+    shifts = np.random.default_rng(seed).random((v_total, 2))
+    lattice = _lattice(rays)
+    chunk = max(1, MAX_RAYS_PER_CHUNK // rays)
+    starts = range(0, v_total, chunk)
+    if len(faces) == 0:  # nothing to hit: every ray escapes
+        return shadowed, (sparse.csr_matrix((v_total, v_total)) if bounces else None)
+    diagonal = float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
+    eps = EPSILON_FRACTION * max(diagonal, 1e-12)
+    mesh, ray = _intersector(positions, faces)
+    if bounces:
+        p0 = positions[faces[:, 0]]
+        face_n = np.cross(positions[faces[:, 1]] - p0, positions[faces[:, 2]] - p0)
+        triangles = positions[faces]
+    with _progress(len(starts), progress) as bar:
+        task = bar.add_task(f"{v_total} vertices x {rays} rays", total=len(starts)) if bar is not None else None
+        for s in starts:
+            e = min(s + chunk, v_total)
+            n = normals[s:e]
+            d = _directions(n, shifts[s:e], lattice)  # (c, R, 3)
+            origins = np.repeat(positions[s:e] + eps * n, rays, axis=0)
+            tri = ray.intersects_first(origins, d.reshape(-1, 3))  # (c R,), -1 = escaped
+            hit = (tri >= 0).reshape(e - s, rays)
+            per_vertex = hit.sum(axis=1)
+            some = per_vertex > 0
+            if some.any():
+                y = sh_basis(d[hit], order)  # rows in vertex order (row-major mask)
+                first = np.concatenate([[0], np.cumsum(per_vertex)[:-1]])[some]
+                shadowed[s:e][some] -= (np.pi / rays) * np.add.reduceat(y, first, axis=0)
+            if bounces:
+                flat = np.flatnonzero(tri >= 0)
+                t_hit = tri[flat]
+                dirs = d.reshape(-1, 3)[flat]
+                dn = np.einsum("ij,ij->i", dirs, face_n[t_hit])
+                front = dn < 0.0
+                flat, t_hit, dirs, dn = flat[front], t_hit[front], dirs[front], dn[front]
+                o = origins[flat]
+                dist = np.einsum("ij,ij->i", p0[t_hit] - o, face_n[t_hit]) / dn
+                bary = trimesh.triangles.points_to_barycentric(triangles[t_hit], o + dist[:, None] * dirs)
+                bary = np.clip(np.nan_to_num(bary, nan=0.0), 0.0, None)
+                total = bary.sum(axis=1, keepdims=True)
+                bary = np.where(total > 0.0, bary / np.where(total > 0.0, total, 1.0), 1.0 / 3.0)
+                rows = np.repeat(flat // rays, 3)
+                g = sparse.coo_matrix((bary.ravel() / rays, (rows, faces[t_hit].ravel())), shape=(e - s, v_total))
+                gather_rows.append(g.tocsr())
+            if bar is not None:
+                bar.advance(task)
+    gather = sparse.vstack(gather_rows, format="csr") if bounces else None
+    return shadowed, gather
+
+
+def _transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
+              seed: int, progress: bool) -> tuple[list[np.ndarray], int]:
+    """transfer() and the number of rays it traced."""
+    order, rays, bounces, seed = int(order), int(rays), int(bounces), int(seed)
+    _check_settings(order, rays, bounces, shadowed)
+    if len(objects) == 0:
+        raise ValueError("PRT needs at least one object")
+    objs = [_check_object(i, o) for i, o in enumerate(objects)]
+    base = np.concatenate([_unshadowed(o.normals, order) for o in objs])  # (V, K)
+    traced = 0
+    if not shadowed:
+        total = np.repeat(base[:, :, None], 3, axis=2)
+    else:
+        t0, gather = _trace(objs, order, rays, bounces, seed, progress, base)
+        traced = len(base) * rays
+        total = np.repeat(t0[:, :, None], 3, axis=2)
+        if bounces:
+            kd = np.concatenate([np.broadcast_to(o.kd, (len(o.positions), 3)) for o in objs])
+            k = total.shape[1]
+            tb = total.copy()
+            for _ in range(bounces):
+                tb = (gather @ (kd[:, None, :] * tb).reshape(len(tb), 3 * k)).reshape(len(tb), k, 3)
+                total += tb
+    out, start = [], 0
+    for i, o in enumerate(objs):
+        t = np.ascontiguousarray(total[start:start + len(o.positions)], dtype=np.float32)
+        start += len(o.positions)
+        if not np.isfinite(t).all():
+            raise FloatingPointError(f"PRT object {i}: the transfer has non-finite values (a bug)")
+        out.append(t)
+    return out, traced
+
+
+def transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
+             seed: int = 0, progress: bool = False) -> list[np.ndarray]:
+    """Per object, (V_i, (order+1)**2, 3) float32 diffuse transfer vectors T so that the irradiance at
+    vertex v for channel c is E_c(v) = sum_k L_{k,c} T_{v,k,c}, with L the environment's SH coefficients
+    (scenes/shbasis.sh_basis convention, the same as realtime/sh.project_equirect).
+
+    shadowed=False: A_l Y_k(n), exact (rays and seed unused; bounces must be 0). shadowed=True:
+    `rays` cosine-weighted visibility rays per vertex, then `bounces` gathering bounces (module
+    docstring). Deterministic for a seed. ValueError for order outside 2..4, bounces without shadows, or
+    bad inputs (naming the object); RuntimeError when shadowed and embreex is missing. progress=True: a
+    rich progress bar over vertex chunks on stderr.
+    """
+    return _transfer(objects, order, rays, bounces, shadowed, seed, progress)[0]
+
+
+# ---------------------------------------------------------------------------------------------- cache
+
+
+def _digest_array(h, a: np.ndarray) -> None:
+    a = np.ascontiguousarray(a)
+    h.update(f"{a.dtype.str}{a.shape}".encode())
+    h.update(a.tobytes())
+
+
+def transfer_key(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
+                 seed: int = 0) -> str:
+    """Hex SHA-256 over everything that changes the transfer (module docstring)."""
+    h = hashlib.sha256()
+    desc = {"kind": "prt", "version": TRANSFER_VERSION, "order": int(order), "rays": int(rays),
+            "bounces": int(bounces), "shadowed": bool(shadowed), "seed": int(seed),
+            "objects": [{"kd": [float(c) for c in o.kd], "two_sided": bool(o.two_sided)} for o in objects]}
+    h.update(json.dumps(desc, sort_keys=True).encode())
+    for o in objects:
+        for a in (o.positions, o.normals, o.indices):
+            _digest_array(h, np.asarray(a))
+    return h.hexdigest()
+
+
+def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
+    h = hashlib.sha256()
+    for a in arrays:
+        _digest_array(h, a)
+    h.update(meta_json.encode())
+    return h.hexdigest()
+
+
+def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] | None:
+    from groundtruth.pathtracer.reference_cache import CacheWarning
+
+    if not path.exists():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            meta_json, stored = str(z["meta"]), str(z["checksum"])
+            arrays = [z[f"t{i}"] for i in range(len(shapes))]
+        if _entry_checksum(arrays, meta_json) != stored:
+            raise ValueError("checksum mismatch")
+        for a, shape in zip(arrays, shapes, strict=True):
+            if a.shape != shape or a.dtype != np.float32 or not np.isfinite(a).all():
+                raise ValueError(f"an array of shape {a.shape} {a.dtype} where {shape} float32 was expected")
+        return arrays, json.loads(meta_json)
+    except Exception as exc:  # any unreadable entry (truncated zip, bad checksum, ...) is recomputed
+        warnings.warn(f"PRT cache entry {path} is corrupt ({exc}); recomputing it", CacheWarning, stacklevel=3)
+        return None
+
+
+def _store(folder, key: str, arrays: list[np.ndarray], meta: dict) -> bool:
+    from groundtruth.pathtracer.reference_cache import CacheWarning, write_npz
+
+    meta_json = json.dumps(meta, sort_keys=True)
+    try:
+        write_npz(folder, key, meta=np.array(meta_json), checksum=np.array(_entry_checksum(arrays, meta_json)),
+                  **{f"t{i}": a for i, a in enumerate(arrays)})
+        return True
+    except OSError as exc:
+        warnings.warn(f"PRT cache {folder} cannot be written ({exc.strerror or exc}); the transfer is returned "
+                      "but not cached", CacheWarning, stacklevel=3)
+        return False
+
+
+def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
+                    seed: int = 0, progress: bool = False) -> tuple[list[np.ndarray], dict]:
+    """transfer(), cached on disk under groundtruth.pathtracer.reference_cache.cache_dir() / "prt" / f"{key}.npz"
+    (atomic write:
+    temp file + os.replace; a corrupt/unreadable entry is recomputed with a warning; an unwritable cache dir is a
+    warning, not a failure), keyed by SHA-256 of every object's positions/normals/indices bytes, kd, two_sided,
+    order, rays, bounces, shadowed, seed and a TRANSFER_VERSION constant. Returns (transfers, info) where info has
+    {"key", "cached": bool, "seconds": compute seconds (0 if cached), "rays_traced": int, "vertices": int,
+    "compute_seconds": what computing it took, also when read from the cache (E8 reports it)}.
+
+    rays_traced is the number of rays the transfer took (vertices x rays when shadowed, else 0), also when it
+    came from the cache (then `cached` is True and `seconds` 0: none were traced now).
+    """
+    from groundtruth.pathtracer.reference_cache import cache_dir
+
+    _check_settings(int(order), int(rays), int(bounces), shadowed)
+    objs = [_check_object(i, o) for i, o in enumerate(objects)]  # validate before hashing
+    key = transfer_key(objects, order, rays, bounces, shadowed, seed)
+    folder = cache_dir() / "prt"
+    vertices = sum(len(o.positions) for o in objs)
+    shapes = [(len(o.positions), count(int(order)), 3) for o in objs]
+    entry = _load(folder / f"{key}.npz", shapes)
+    if entry is not None:
+        arrays, meta = entry
+        return arrays, {"key": key, "cached": True, "seconds": 0.0, "rays_traced": int(meta["rays_traced"]),
+                        "vertices": vertices, "compute_seconds": float(meta.get("seconds", 0.0))}
+    t0 = time.perf_counter()
+    arrays, traced = _transfer(objects, order, rays, bounces, shadowed, seed, progress)
+    seconds = time.perf_counter() - t0
+    _store(folder, key, arrays, {"rays_traced": traced, "vertices": vertices, "seconds": seconds,
+                                 "version": TRANSFER_VERSION})
+    return arrays, {"key": key, "cached": False, "seconds": seconds, "rays_traced": traced, "vertices": vertices,
+                    "compute_seconds": seconds}

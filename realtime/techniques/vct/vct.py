@@ -1,0 +1,409 @@
+"""Voxel cone tracing through cascaded anisotropic voxel textures (seed 001): `realtime.occlusion = "vct"`,
+`realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step`.
+
+The voxel scene (`VoxelScene`, one per frame in `frame.shared["vct"]`, made by whichever VCT technique
+asks first): `cascades` nested cubic grids of `resolution`^3 voxels, each twice the extent of the one
+inside it, centred on the objects' bounding box (our cameras look at the objects from outside, so the
+finest grid goes where the geometry is; realtime/techniques/vct/vct_math.py: `Cascades`, the outermost holding the
+box with a 10% margin). `cascades = 1` is a plain 3D texture over the same extent.
+
+Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel
+toward it; rgb radiance premultiplied by alpha, a the opacity), the cascades stacked along z, each face
+with its anisotropic mip chain: 6 x 8 = 48 bytes per voxel at every level (the seed stores the finest
+level isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
+
+Every frame (timed `voxelize`, its mips as `mip`):
+1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
+   triangle/box test over its bounding box; integer atomics sum per voxel the count, the albedo and per
+   face direction a_f the weight max(0, n . a_f) and the weighted normal (the normal-weighted scheme:
+   the mean of a thin wall's normals would face nowhere);
+2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
+3. injection (inject = 1): each face's direct radiance (W_f / max_g W_g) albedo / pi E(n_f) V(n_f), E the
+   environment's SH9 irradiance (the scene's own when `diffuse = "sh"` with the paper's order; otherwise
+   the environment filter's SH9 of the same level), V the diffuse cones' visibility through the voxels
+   themselves (mips >= 1: level 0 is being written); then the radiance mips. `bounces` > 1 (VoxelScene
+   argument, for the energy test) re-injects with what the cones gather from the previous bounce.
+
+Albedo of a voxel: kd for diffuse, ks for phong (a glossy surface re-emits its energy as if diffuse:
+right in total, wrong in direction), (1 - f0) kd + f0 ks for blend.
+
+Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
+diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
+from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
+through the paper's reflectance. The cones start NORMAL_OFFSET_VOXELS along the normal and
+START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
+self-intersection offset, with FOOTPRINT_RATIO: a sample's voxel is at most a third of its height
+above the tangent plane. That rule keeps a cone from reading its own surface's voxels at coarse levels
+(without it a plane sees 15% less sky than it should), but it narrows the cones near the surface: an
+occluder on a cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py measures the
+over-occlusion under a sphere). Their cost is inside `draw`; E10 reports `trace` as draw minus the same
+scene's direct-only draw.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import moderngl
+import numpy as np
+
+from realtime.engine.gpu import shader_source
+from realtime.engine.technique import Frame, Technique, set_uniform
+from realtime.techniques.vct import vct_math
+from scenes.model import materials
+
+#: the cones' origin moves this many voxels along the surface normal (self-intersection offset)
+NORMAL_OFFSET_VOXELS = 1.5
+#: and their first sample is this many voxels along the cone from there
+START_OFFSET_VOXELS = 1.0
+#: a cone sample's voxel is at most this times its height above the surface's tangent plane (its trilinear
+#: footprint never reaches the surface's own voxels: the self-intersection rule near the horizon)
+FOOTPRINT_RATIO = 0.33
+#: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
+SAME_NORMAL_COS = 0.95
+#: injection's visibility cones read mips >= this (level 0 is being written in the same pass)
+INJECT_LOD_MIN = 1.0
+#: injection's cones step this many times the shading's (`step`); 2 halves the injection's time on cornell-open but
+#: darkens the injected light by a fifth (Beer-Lambert over fewer samples), so it stays 1
+INJECT_STEP_FACTOR = 1.0
+#: texture units of the six face textures (1, 2, 5 are the environment's, the prefiltered chain's, shadows')
+FACE_UNIT0 = 8
+FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
+BYTES_PER_VOXEL = 6 * 8  # six RGBA16F faces
+VOXEL_INTS = 28  # count, albedo rgb, 6 x (weight, weighted normal xyz)
+ALBEDO_SCALE = 4096.0
+NORMAL_SCALE = 4096.0
+COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
+                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}")
+
+
+def albedo_of(material) -> np.ndarray:
+    kind = materials.of(material).name
+    kd, ks = np.asarray(material.kd, dtype=np.float64), np.asarray(material.ks, dtype=np.float64)
+    if kind == "diffuse":
+        return kd
+    if kind == "phong":
+        return ks
+    f0 = float(material.f0)
+    return (1.0 - f0) * kd + f0 * ks
+
+
+def triangle_records(objects) -> np.ndarray:
+    """(T * 5, 4) float32: per triangle p0, p1, p2, (mean vertex normal, two_sided), (albedo, 0)."""
+    out = []
+    for obj in objects:
+        mesh = obj.mesh
+        p = mesh.positions.astype(np.float64)
+        n = mesh.normals.astype(np.float64)
+        idx = mesh.indices.astype(np.int64)
+        tri = p[idx]  # (T, 3, 3)
+        nn = n[idx].sum(axis=1)
+        face = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+        length = np.linalg.norm(nn, axis=1, keepdims=True)
+        nn = np.where(length > 1e-12, nn / np.maximum(length, 1e-12),
+                      face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-30))
+        rec = np.zeros((len(idx), 5, 4))
+        rec[:, :3, :3] = tri
+        rec[:, 3, :3] = nn
+        rec[:, 3, 3] = float(bool(obj.material.two_sided))
+        rec[:, 4, :3] = albedo_of(obj.material)
+        out.append(rec.reshape(-1, 4))
+    return np.concatenate(out).astype("f4")
+
+
+def scene_bounds(objects) -> tuple[np.ndarray, np.ndarray]:
+    pts = np.concatenate([o.mesh.positions.astype(np.float64) for o in objects])
+    return pts.min(axis=0), pts.max(axis=0)
+
+
+def groups(n: int, local: int) -> int:
+    return (n + local - 1) // local
+
+
+class VoxelScene:
+    """The scene's voxel cascades on the GPU: voxelised, injected and mipmapped once per frame."""
+
+    def __init__(self, ctx: moderngl.Context, objects, resolution: int, cascades: int, diffuse_cones: int,
+                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None) -> None:
+        """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
+        `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for)."""
+        self.ctx = ctx
+        self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
+        lo, hi = scene_bounds(objects)
+        self.grid = grid or vct_math.cascades_for(lo, hi, resolution, cascades)
+        self.cones = vct_math.cone_set(diffuse_cones)
+        records = triangle_records(objects)
+        self.triangle_count = len(records) // 5
+        self.triangles = ctx.buffer(records.tobytes())
+        self.scratch = [ctx.buffer(reserve=resolution ** 3 * VOXEL_INTS * 4) for _ in range(cascades)]
+        size = (resolution, resolution, resolution * cascades)
+        self.faces = []
+        for _ in range(6):
+            tex = ctx.texture3d(size, 4, dtype="f2")
+            tex.build_mipmaps()  # allocates the chain; vct_mip.comp writes it
+            tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+            self.faces.append(tex)
+        self.mip_levels = self.grid.levels
+        self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES))
+        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES))
+        self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp"))
+        self.probe_prog = None
+        self.updated_frame: int | None = None
+        self.split: dict[str, float] = {}
+
+    # -- per frame ------------------------------------------------------------------------------
+    def _finish_ms(self, t0: float) -> float:
+        self.ctx.finish()
+        return (time.perf_counter() - t0) * 1e3
+
+    def update(self, frame: Frame | None, sh_buffer: moderngl.Buffer) -> None:
+        """Voxelise, inject and mipmap (once per frame number; `frame` None: always)."""
+        if frame is not None and self.updated_frame == frame.number:
+            return
+        self.updated_frame = None if frame is None else frame.number
+        ctx = self.ctx
+        mip_ms = 0.0
+        R = self.resolution
+        self.voxelize()
+        for c in range(self.count):
+            self.inject(c, 0, sh_buffer)
+        t0 = time.perf_counter()
+        self.build_mips()
+        mip_ms += self._finish_ms(t0)
+        for bounce in range(1, self.bounces + 1):
+            for c in range(self.count):
+                self.inject(c, 1 if bounce == 1 else 2, sh_buffer)
+            t0 = time.perf_counter()
+            self.build_mips()
+            mip_ms += self._finish_ms(t0)
+        del R
+        ctx.memory_barrier()
+        self.split = {"mip": mip_ms}
+
+    def voxelize(self) -> None:
+        p = self.voxelize_prog
+        self.triangles.bind_to_storage_buffer(0)
+        p["triangle_count"] = self.triangle_count
+        p["resolution"] = self.resolution
+        for c in range(self.count):
+            he = self.grid.half_extent_of(c)
+            self.scratch[c].clear()
+            self.scratch[c].bind_to_storage_buffer(1)
+            p["grid_min"] = tuple(float(x - he) for x in self.grid.centre)
+            p["voxel"] = 2.0 * he / self.resolution
+            p.run(groups(self.triangle_count, 64))
+            self.ctx.memory_barrier()
+
+    def inject(self, cascade: int, mode: int, sh_buffer: moderngl.Buffer) -> None:
+        p = self.inject_prog
+        self.bind_trace(p)
+        self.scratch[cascade].bind_to_storage_buffer(1)
+        sh_buffer.bind_to_storage_buffer(2)
+        for f, tex in enumerate(self.faces):
+            tex.bind_to_image(f, read=False, write=True, level=0)
+        p["cascade"] = cascade
+        p["inject"] = mode
+        set_uniform(p, "lod_min", INJECT_LOD_MIN)
+        set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
+        g = groups(self.resolution, 4)
+        p.run(g, g, g)
+        self.ctx.memory_barrier()
+
+    def build_mips(self) -> None:
+        p = self.mip_prog
+        R = self.resolution
+        for level in range(1, self.mip_levels):
+            r = R >> level
+            p["dst_size"] = (r, r, r * self.count)
+            for f, tex in enumerate(self.faces):
+                tex.bind_to_image(0, read=True, write=False, level=level - 1)
+                tex.bind_to_image(1, read=False, write=True, level=level)
+                p["axis"] = f // 2
+                p["sign_"] = 1 if f % 2 == 0 else -1
+                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+
+    # -- tracing uniforms -----------------------------------------------------------------------
+    def bind_trace(self, prog: moderngl.Program) -> None:
+        for f, tex in enumerate(self.faces):
+            tex.use(FACE_UNIT0 + f)
+            set_uniform(prog, f"vct_face_{FACE_NAMES[f]}", FACE_UNIT0 + f)
+        g = self.grid
+        set_uniform(prog, "vct_centre", g.centre)
+        set_uniform(prog, "vct_half_extent", g.half_extent)
+        set_uniform(prog, "vct_voxel", g.voxel_size)
+        set_uniform(prog, "vct_resolution", g.resolution)
+        set_uniform(prog, "vct_cascades", g.count)
+        set_uniform(prog, "vct_step", self.step)
+        set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
+        set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
+        set_uniform(prog, "vct_footprint_ratio", FOOTPRINT_RATIO)
+        cones = self.cones
+        dirs = np.zeros((9, 3), "f4")
+        dirs[: len(cones.directions)] = cones.directions
+        weights = np.zeros(9, "f4")
+        weights[: len(cones.weights)] = cones.weights
+        set_uniform(prog, "vct_cone_count", len(cones.directions))
+        if "vct_cone_dir" in prog:
+            prog["vct_cone_dir"].write(dirs.tobytes())
+        if "vct_cone_weight" in prog:
+            prog["vct_cone_weight"].write(weights.tobytes())
+        set_uniform(prog, "vct_cone_tan", math.tan(cones.half_angle))
+
+    # -- read-backs (tests, measurements) -------------------------------------------------------
+    def occupied(self, cascade: int = 0) -> np.ndarray:
+        """(R, R, R) bool indexed [x, y, z]: voxels some triangle touched."""
+        acc = np.frombuffer(self.scratch[cascade].read(), dtype="i4").reshape(
+            self.resolution, self.resolution, self.resolution, VOXEL_INTS)
+        return acc[..., 0].transpose(2, 1, 0) > 0
+
+    def read_faces(self, level: int = 0) -> np.ndarray:
+        """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
+        r = self.resolution >> level
+        prog = self.ctx.compute_shader(shader_source("vct_dump.comp"))
+        buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
+        out = []
+        for tex in self.faces:
+            tex.bind_to_image(0, read=True, write=False, level=level)
+            buf.bind_to_storage_buffer(1)
+            prog["size"] = (r, r, r * self.count)
+            prog.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+            vol = np.frombuffer(buf.read(), dtype="f4").reshape(self.count * r, r, r, 4)  # [z, y, x]
+            out.append(vol.reshape(self.count, r, r, r, 4).transpose(0, 3, 2, 1, 4))
+        buf.release()
+        prog.release()
+        return np.stack(out)
+
+    def write_level0(self, faces: np.ndarray) -> None:
+        """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba]."""
+        for f, tex in enumerate(self.faces):
+            vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
+            tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
+
+    def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
+        """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""
+        if self.probe_prog is None:
+            self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp"))
+        p = self.probe_prog
+        n = len(points)
+        data = np.zeros((n, 2, 4), "f4")
+        data[:, 0, :3] = points
+        data[:, 1, :3] = normals
+        src = self.ctx.buffer(data.tobytes())
+        out = self.ctx.buffer(reserve=n * 16)
+        self.bind_trace(p)
+        src.bind_to_storage_buffer(0)
+        out.bind_to_storage_buffer(1)
+        p["count"] = n
+        set_uniform(p, "lod_min", lod_min)
+        p.run(groups(n, 64))
+        self.ctx.memory_barrier()
+        res = np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)
+        src.release()
+        out.release()
+        return res
+
+    def meta(self) -> dict:
+        g = self.grid
+        per = g.bytes_per_cascade(BYTES_PER_VOXEL)
+        return {"vct": {"resolution": g.resolution, "cascades": g.count, "diffuse_cones": len(self.cones.weights),
+                        "cone_aperture_deg": 2.0 * math.degrees(self.cones.half_angle), "step": self.step,
+                        "normal_offset_voxels": NORMAL_OFFSET_VOXELS, "start_offset_voxels": START_OFFSET_VOXELS,
+                        "centre": list(g.centre), "finest_half_extent": g.half_extent,
+                        "outer_half_extent": g.half_extent_of(g.count - 1), "voxel_size": g.voxel_size,
+                        "bytes_per_voxel": BYTES_PER_VOXEL, "bytes_per_cascade": [per] * g.count,
+                        "bytes": per * g.count, "single_texture_bytes": g.single_texture_bytes(BYTES_PER_VOXEL),
+                        "single_texture_resolution": g.resolution << (g.count - 1),
+                        "scratch_bytes": sum(b.size for b in self.scratch), "triangles": self.triangle_count,
+                        "bounces": self.bounces}}
+
+    def release(self) -> None:
+        for r in [self.triangles, *self.scratch, *self.faces, self.voxelize_prog, self.inject_prog,
+                  self.mip_prog, self.probe_prog]:
+            if r is not None:
+                r.release()
+
+
+def sh_source(frame: Frame) -> moderngl.Buffer:
+    """The buffer with this frame's SH9 matrices M for the injection: the scene's own (diffuse = "sh",
+    the paper's order, already projected this frame: its window included), else projected here."""
+    rt = frame.scene.realtime
+    if not ("diffuse" in frame.scene.effects and rt.diffuse == "sh" and rt.sh_order == 2):
+        frame.env_filter.project_sh(frame.face_size)
+    return frame.env_filter.sh_buffer
+
+
+def shared_voxels(frame: Frame) -> VoxelScene:
+    if "vct" not in frame.shared:
+        v = frame.scene.realtime.vct
+        frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
+                                         v.diffuse_cones, v.step)
+    return frame.shared["vct"]
+
+
+class _VctEffect(Technique):
+    """What `occlusion = "vct"` and `interreflection = "vct"` share: the voxel scene, its per-frame update."""
+
+    timing_key = "voxelize"
+    extra_timing_keys = ("mip",)
+
+    def __init__(self, frame: Frame) -> None:
+        super().__init__(frame)
+        self.voxels: VoxelScene | None = None
+        self.owner = False
+        self._split: dict[str, float] = {}
+
+    def prepare(self, frame: Frame) -> None:
+        self.owner = "vct" not in frame.shared
+        self.voxels = shared_voxels(frame)
+
+    def update(self, frame: Frame) -> None:
+        before = self.voxels.updated_frame
+        self.voxels.update(frame, sh_source(frame) if before != frame.number else frame.env_filter.sh_buffer)
+        self._split = dict(self.voxels.split) if before != frame.number else {}
+
+    def split_timings(self) -> dict[str, float]:
+        out, self._split = self._split, {}
+        return out
+
+    def bind(self, prog: moderngl.Program) -> None:
+        self.voxels.bind_trace(prog)
+
+    def bind_object(self, prog: moderngl.Program, obj) -> None:
+        set_uniform(prog, "vct_glossy_tan", math.tan(vct_math.glossy_half_angle(float(obj.material.exponent))))
+
+    def meta(self) -> dict:
+        return self.voxels.meta() if self.owner else {}
+
+    def release(self) -> None:
+        if self.owner and self.voxels is not None:
+            self.voxels.release()
+            self.frame.shared.pop("vct", None)
+
+
+class VctOcclusion(_VctEffect):
+    """`occlusion = "vct"`: the environment's diffuse and glossy light times the cones' visibility."""
+
+    effect = "occlusion"
+    name = "vct"
+    simulates = frozenset({"occlusion"})
+    reads = ("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones", "realtime.vct.step")
+    axes = {"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
+            "realtime.vct.diffuse_cones": (4, 6, 9)}
+
+    def defines(self) -> tuple[str, ...]:
+        return ("VCT_OCCLUSION",)
+
+
+class VctInterreflection(_VctEffect):
+    """`interreflection = "vct"`: plus the one-bounce radiance the same cones gather from the voxels."""
+
+    effect = "interreflection"
+    name = "vct"
+    simulates = frozenset({"interreflection"})
+
+    def defines(self) -> tuple[str, ...]:
+        return ("VCT_INTERREFLECTION",)

@@ -1,0 +1,204 @@
+"""The numpy half of voxel cone tracing (realtime/techniques/vct/vct.py; design.md section 9, seed 001): what a test
+or the GPU side needs without GL.
+
+- `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles, cosine weights that
+  sum to pi) for 4, 6 or 9 cones; 6 cones of 60 degrees aperture are the seed's.
+- `glossy_half_angle(exponent)`: the glossy cone follows the Phong exponent: its solid angle
+  2 pi (1 - cos a) is the lobe's 2 pi / (N + 1) (McGuire et al. 2013), clamped to [1, 30] degrees.
+- `Cascades`: nested cubic grids, each twice the extent of the one inside it, centred on the objects;
+  `level_of` is the seed's level selection (the cone's diameter picks the cascade and its mip).
+- `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged),
+  the reference the GPU's vct_mip.comp is tested against.
+- `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cache
+
+import numpy as np
+
+#: cone counts `[realtime.vct] diffuse_cones` may take
+CONE_COUNTS = (4, 6, 9)
+#: the seed's diffuse cone: 60 degrees aperture for 6 cones
+SEED_HALF_ANGLE_DEG = 30.0
+#: polar angle of the ring of cones around the normal (the seed's 6-cone layout: one along n, five at 60 deg)
+RING_POLAR_DEG = 60.0
+#: the glossy cone's half-angle is clamped to this range (degrees)
+GLOSSY_HALF_ANGLE_RANGE = (1.0, 30.0)
+#: face order of the six directional values: +X, -X, +Y, -Y, +Z, -Z (a face holds what leaves the voxel
+#: toward that direction, so a cone travelling along d reads the faces that point against d)
+FACES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
+
+
+@dataclass(frozen=True)
+class ConeSet:
+    directions: np.ndarray  # (n, 3) in the normal's frame (z = the normal)
+    half_angle: float  # radians, the same for every cone of the set
+    weights: np.ndarray  # (n,) cosine-weighted solid angle of each cone's share of the hemisphere; sum = pi
+
+
+def half_angle_for(count: int) -> float:
+    """Cones of equal solid angle tiling the hemisphere have 2 pi (1 - cos a) = 2 pi / n; scaled so that
+    6 cones get the seed's 30 degrees (the seed's overlap ratio for every count)."""
+    equal_area = math.acos(1.0 - 1.0 / count)
+    return equal_area * math.radians(SEED_HALF_ANGLE_DEG) / math.acos(1.0 - 1.0 / 6.0)
+
+
+@cache
+def cone_set(count: int) -> ConeSet:
+    """One cone along the normal and count - 1 in a ring at RING_POLAR_DEG; weights are the cosine
+    integral of each cone's Voronoi region of the hemisphere (a fine Fibonacci quadrature, then
+    normalised to sum to pi exactly: the cones together see the whole cosine lobe)."""
+    if count not in CONE_COUNTS:
+        raise ValueError(f"diffuse_cones must be one of {CONE_COUNTS}, got {count}")
+    polar = math.radians(RING_POLAR_DEG)
+    ring = count - 1
+    dirs = [(0.0, 0.0, 1.0)]
+    for k in range(ring):
+        phi = 2.0 * math.pi * k / ring
+        dirs.append((math.sin(polar) * math.cos(phi), math.sin(polar) * math.sin(phi), math.cos(polar)))
+    d = np.array(dirs)
+    # hemisphere quadrature: equal-area Fibonacci points (z uniform in (0, 1] is equal area)
+    m = 200_000
+    i = np.arange(m) + 0.5
+    z = 1.0 - i / m
+    r = np.sqrt(1.0 - z * z)
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    pts = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
+    owner = np.argmax(pts @ d.T, axis=1)
+    w = np.bincount(owner, weights=z, minlength=count) * (2.0 * math.pi / m)
+    w *= math.pi / w.sum()
+    return ConeSet(d, half_angle_for(count), w)
+
+
+def tangent_frame(n: np.ndarray) -> np.ndarray:
+    """(3, 3) rows t, b, n: the frame vct_trace.glsl builds (the same helper-axis rule)."""
+    n = np.asarray(n, dtype=np.float64)
+    n = n / np.linalg.norm(n)
+    helper = np.array([0.0, 1.0, 0.0]) if abs(n[1]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    t = np.cross(helper, n)
+    t /= np.linalg.norm(t)
+    return np.stack([t, np.cross(n, t), n])
+
+
+def glossy_half_angle(exponent: float) -> float:
+    """The glossy cone's half-angle (radians): 2 pi (1 - cos a) = 2 pi / (N + 1), i.e. cos a = N / (N + 1)."""
+    a = math.degrees(math.acos(max(0.0, min(1.0, exponent / (exponent + 1.0)))))
+    lo, hi = GLOSSY_HALF_ANGLE_RANGE
+    return math.radians(min(max(a, lo), hi))
+
+
+@dataclass(frozen=True)
+class Cascades:
+    """`count` nested cubic grids of `resolution`^3 voxels centred on `centre`; cascade c spans
+    half_extent * 2^c on each side of the centre (cascade 0 the finest)."""
+
+    centre: tuple[float, float, float]
+    half_extent: float  # of the finest cascade
+    resolution: int
+    count: int
+
+    @property
+    def voxel_size(self) -> float:
+        """Edge of a voxel of the finest cascade."""
+        return 2.0 * self.half_extent / self.resolution
+
+    def half_extent_of(self, c: int) -> float:
+        return self.half_extent * 2.0 ** c
+
+    @property
+    def levels(self) -> int:
+        """Mip levels of each cascade (resolution down to 1)."""
+        return int(math.log2(self.resolution)) + 1
+
+    def cascade_of(self, p: np.ndarray) -> int:
+        """The finest cascade holding p (-1: outside them all). A point must lie half a voxel of that
+        cascade inside its box (trilinear lookups stay inside)."""
+        off = np.abs(np.asarray(p, dtype=np.float64) - np.asarray(self.centre)).max()
+        for c in range(self.count):
+            if off <= self.half_extent_of(c) * (1.0 - 1.0 / self.resolution):
+                return c
+        return -1
+
+    def level_of(self, p: np.ndarray, diameter: float) -> tuple[int, float]:
+        """The seed's level selection: the cone's diameter d at p gives lod = log2(d / h0) over the
+        whole pyramid (voxel size h0 2^lod); the cascade is floor(lod) (a coarser cascade covers the
+        same level), never finer than the finest one holding p; the mip inside it is lod - cascade."""
+        lod = max(0.0, math.log2(max(diameter, 1e-30) / self.voxel_size))
+        inside = self.cascade_of(p)
+        if inside < 0:
+            return -1, 0.0
+        c = min(max(int(math.floor(lod)), inside), self.count - 1)
+        return c, min(max(lod - c, 0.0), float(self.levels - 1))
+
+    def bytes_per_cascade(self, bytes_per_voxel: int) -> int:
+        """One cascade's six faces with their full mip chains (1 + 1/8 + ... of the finest)."""
+        voxels = sum((self.resolution >> m) ** 3 for m in range(self.levels))
+        return voxels * bytes_per_voxel
+
+    def single_texture_bytes(self, bytes_per_voxel: int) -> int:
+        """A plain 3D texture with the finest voxel size over the outermost extent, mip chain included."""
+        r = self.resolution << (self.count - 1)
+        return sum((r >> m) ** 3 for m in range(int(math.log2(r)) + 1)) * bytes_per_voxel
+
+
+def cascades_for(bounds_min: np.ndarray, bounds_max: np.ndarray, resolution: int, count: int,
+                 margin: float = 1.1) -> Cascades:
+    """Cascades centred on the objects' bounding box, the outermost holding the box (times `margin`)."""
+    lo, hi = np.asarray(bounds_min, dtype=np.float64), np.asarray(bounds_max, dtype=np.float64)
+    centre = (lo + hi) / 2.0
+    outer = 0.5 * float((hi - lo).max()) * margin
+    outer = max(outer, 1e-3)
+    return Cascades(tuple(float(x) for x in centre), outer / 2.0 ** (count - 1), resolution, count)
+
+
+def anisotropic_mip(faces: np.ndarray) -> np.ndarray:
+    """One level of the six-face mip: faces (6, R, R, R, 4) indexed [face, x, y, z, rgba] with rgb
+    premultiplied by alpha -> (6, R/2, R/2, R/2, 4). Face f (what leaves toward axis direction s e_a):
+    along axis a the child nearer the viewer (on the s side) is in front: c = c_front + (1 - a_front)
+    c_back, a likewise; the four such pairs across the other two axes are averaged."""
+    out = []
+    for f, direction in enumerate(FACES):
+        v = faces[f]
+        axis = int(np.flatnonzero(direction)[0])
+        sign = direction[axis]
+        lo = np.take(v, range(0, v.shape[axis], 2), axis=axis)
+        hi = np.take(v, range(1, v.shape[axis], 2), axis=axis)
+        front, back = (hi, lo) if sign > 0 else (lo, hi)
+        pair = front + (1.0 - front[..., 3:4]) * back
+        # average over the other two axes
+        others = [a for a in range(3) if a != axis]
+        for a in others:
+            pair = 0.5 * (np.take(pair, range(0, pair.shape[a], 2), axis=a)
+                          + np.take(pair, range(1, pair.shape[a], 2), axis=a))
+        out.append(pair)
+    return np.stack(out)
+
+
+def read_direction(faces_at_voxel: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """What a cone travelling along unit d reads from one voxel's six faces (6, 4): the faces pointing
+    against d, weighted by d's squared components (they sum to 1)."""
+    d = np.asarray(d, dtype=np.float64)
+    w = d * d
+    out = np.zeros(4)
+    for a in range(3):
+        f = 2 * a + (1 if d[a] > 0 else 0)  # travelling +x: we see what leaves toward -x
+        out += w[a] * faces_at_voxel[f]
+    return out
+
+
+def surface_voxel_bound(radius: float, voxel: float) -> float:
+    """The number of voxels a sphere's surface can touch is about its area over a voxel face, times the
+    shell thickness in voxels a surface can cross (sqrt(3): a voxel's diagonal): 4 pi r^2 / h^2 * sqrt 3,
+    plus the shell's curvature term; used as the upper bound of a voxelised sphere's occupied count."""
+    return 4.0 * math.pi * radius ** 2 / voxel ** 2 * math.sqrt(3.0) + 8.0 * math.pi * radius / voxel
+
+
+def cap_visibility(radius: float, height: float) -> float:
+    """Cosine-weighted visibility of the sky from a point on a plane straight below a sphere of `radius`
+    whose centre is at `height`: the sphere blocks a cap of half-angle b with sin b = r / h, whose share of
+    the cosine lobe is sin^2 b, so V = 1 - (r / h)^2."""
+    return 1.0 - (radius / height) ** 2
