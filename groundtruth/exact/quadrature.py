@@ -33,6 +33,7 @@ import numpy as np
 
 from groundtruth.exact import raycast
 from groundtruth.exact.reflectance import face_viewer, lobe_weights, phong_lobe, reflect
+from scenes import InputError
 from scenes.environment import envmap
 from scenes.environment.directions import TWO_PI, normalize, rotation_y, uv_to_direction
 from scenes.model.render import Render
@@ -249,8 +250,6 @@ def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> 
 def render(scene, subpixels: int = 4) -> Render:
     """The noise-free, unoccluded reference of `scene` (see the module docstring)."""
     if scene.reference.lighting != "environment":
-        from scenes import InputError
-
         raise InputError(f"{scene.path}: reference.lighting = {scene.reference.lighting!r}: the quadrature integrates "
                          "the environment map; render the light array with --renderer reference")
     t0 = time.perf_counter()

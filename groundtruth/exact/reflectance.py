@@ -15,6 +15,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from scenes.model import materials
+
 
 def schlick(f0: float, n_dot_v: np.ndarray) -> np.ndarray:
     """Schlick's Fresnel (Gu et al. eq. 15) with n.v clamped to [0, 1]: F -> 1 at and beyond grazing."""
@@ -24,8 +26,6 @@ def schlick(f0: float, n_dot_v: np.ndarray) -> np.ndarray:
 
 def lobe_weights(material, n_dot_v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(w_diffuse, w_glossy) per shading point: (1, 0) diffuse, (0, 1) phong, (1 - F, F) blend."""
-    from scenes.model import materials
-
     n_dot_v = np.asarray(n_dot_v, dtype=np.float64)
     fresnel = materials.of(material).fresnel
     if fresnel == "zero":

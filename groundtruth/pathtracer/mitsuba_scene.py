@@ -25,6 +25,8 @@ import math
 import numpy as np
 
 from groundtruth.pathtracer import paper_bsdf
+from scenes.environment import light_array
+from scenes.environment.directions import rotation_y
 from scenes.model import materials
 
 
@@ -115,9 +117,6 @@ def emitter_dict(mi, scene, env: np.ndarray) -> dict:
 
 def light_array_emitters(scene, env: np.ndarray) -> dict:
     """The scene's light array as Mitsuba `directional` emitters (world directions: the map's rotation)."""
-    from scenes.environment import light_array
-    from scenes.environment.directions import rotation_y
-
     params = scene.realtime.lights
     array = light_array.make(env, params.placement, params.count)
     world = array.directions @ rotation_y(scene.environment.rotation_deg).T

@@ -61,9 +61,7 @@ def register(mi) -> None:
 
 
 def make_class(mi):
-    import drjit as dr
-
-    from scenes.model import materials
+    import drjit as dr  # deferred: Mitsuba's variant (variant.py) is chosen before Dr.Jit loads
 
     class PaperBSDF(mi.BSDF):
         def __init__(self, props):

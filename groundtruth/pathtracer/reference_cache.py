@@ -18,25 +18,17 @@ Location: `$IBLCHECK_CACHE`, default `~/.cache/iblcheck`; one entry per key, `<k
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
-import io
 import json
-import os
-import tempfile
 import warnings
-from collections.abc import Iterator
-from pathlib import Path
 
 import numpy as np
 
+from scenes.environment.light_array import LIGHT_ARRAY_VERSION
+from scenes.model import materials
+from scenes.storage.disk_cache import CacheWarning, cache_dir, locked, write_npz
 
-class CacheWarning(UserWarning):
-    """The cache could not be used as intended (corrupt entry, unwritable folder); the render goes on."""
-
-
-def cache_dir() -> Path:
-    return Path(os.environ.get("IBLCHECK_CACHE") or Path.home() / ".cache" / "iblcheck")
+__all__ = ["CacheWarning", "cache_dir", "load", "locked", "reference_key", "store", "vars_of", "write_npz"]
 
 
 def _digest_array(h, a: np.ndarray) -> None:
@@ -62,8 +54,6 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
         "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
     }
     if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
-        from scenes.environment.light_array import LIGHT_ARRAY_VERSION
-
         desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count,
                             LIGHT_ARRAY_VERSION]
     h.update(json.dumps(desc, sort_keys=True).encode())
@@ -75,8 +65,6 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
 
 def vars_of(material) -> dict:
     """The material fields that matter to its type (an unused kd must not split the cache)."""
-    from scenes.model import materials
-
     return materials.used_fields(material)
 
 
@@ -118,46 +106,3 @@ def store(key: str, rgb: np.ndarray, mask: np.ndarray, meta: dict) -> bool:
         warnings.warn(f"reference cache {folder} cannot be written ({exc.strerror or exc}); "
                       "the render is returned but not cached", CacheWarning, stacklevel=2)
         return False
-
-
-def write_npz(folder: Path, key: str, **arrays: np.ndarray) -> None:
-    """`folder/key.npz` written atomically (a temporary file in the same folder, fsync, rename): readers
-    see the old entry or the whole new one, never part of it. Raises OSError (the temporary file is
-    removed). Shared by the reference cache and the PRT cache (realtime/techniques/prt/prt_transfer.py)."""
-    buf = io.BytesIO()
-    np.savez(buf, **arrays)
-    folder.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{key[:16]}-", suffix=".tmp", dir=folder)
-    try:
-        with os.fdopen(fd, "wb") as f:
-            f.write(buf.getvalue())
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, folder / f"{key}.npz")
-    except OSError:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-
-
-@contextlib.contextmanager
-def locked(key: str) -> Iterator[None]:
-    """Hold an exclusive advisory lock for `key` while rendering it (no-op where locks are unavailable)."""
-    try:
-        import fcntl
-    except ImportError:  # pragma: no cover (Windows)
-        yield
-        return
-    folder = cache_dir()
-    try:
-        folder.mkdir(parents=True, exist_ok=True)
-        fd = os.open(folder / f"{key}.lock", os.O_RDWR | os.O_CREAT, 0o644)
-    except OSError:
-        yield  # unwritable cache: nothing to protect
-        return
-    try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
-        yield
-    finally:
-        fcntl.flock(fd, fcntl.LOCK_UN)
-        os.close(fd)

@@ -9,6 +9,7 @@ radiance Mitsuba's path tracer sees.
 
 from __future__ import annotations
 
+import hashlib
 import warnings
 from pathlib import Path
 
@@ -112,6 +113,4 @@ def lookup(env: np.ndarray, directions: np.ndarray, rotation_deg: float = 0.0) -
 
 def file_digest(path: str | Path) -> str:
     """SHA-256 of a file's bytes (for cache keys)."""
-    import hashlib
-
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()

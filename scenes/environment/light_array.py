@@ -32,6 +32,7 @@ from collections import deque
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.spatial import cKDTree
 
 from scenes.environment.directions import equirect_directions, equirect_solid_angles, luminance, normalize
 
@@ -134,8 +135,6 @@ def geodesic_directions(count: int) -> np.ndarray:
 
 def nearest_light(directions: np.ndarray, lights: np.ndarray) -> np.ndarray:
     """Index of the light with the largest dot product for each direction (..., 3): its Voronoi cell."""
-    from scipy.spatial import cKDTree
-
     # on the unit sphere the Euclidean nearest neighbour is the largest dot product
     flat = directions.reshape(-1, 3)
     _, idx = cKDTree(lights).query(flat, k=1)

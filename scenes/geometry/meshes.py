@@ -8,6 +8,9 @@ Builtin meshes are centred at the origin and fit in the unit sphere (`sphere` ha
 
 from __future__ import annotations
 
+import dataclasses
+import io
+import logging
 import re
 import warnings
 from dataclasses import dataclass, field
@@ -16,9 +19,13 @@ from importlib import resources
 from pathlib import Path
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from scenes.environment.directions import normalize, rotation_xyz
 from scenes.storage.errors import MeshError
+from scenes.storage.files import read_input
 
 #: vertex coordinates in a mesh file must lie within +- this (objects.scale enlarges an object)
 MAX_COORDINATE = 1e6
@@ -179,9 +186,6 @@ def smooth_shaded(p: np.ndarray, idx: np.ndarray, crease_deg: float | None = Non
 def _crease_fans(weld: np.ndarray, fn: np.ndarray, crease_deg: float) -> np.ndarray:
     """A fan label per corner (3F,): corners at one welded vertex share a label when their faces are
     connected around it through edges at which the faces' normals differ by at most crease_deg."""
-    from scipy.sparse import coo_matrix
-    from scipy.sparse.csgraph import connected_components
-
     n_corners = weld.size
     entry = np.arange(n_corners)  # edge entry e: face e // 3, from its corner e to the next corner
     face, nxt = entry // 3, entry - entry % 3 + (entry % 3 + 1) % 3
@@ -240,8 +244,6 @@ def is_convex(p: np.ndarray, idx: np.ndarray, rel_tol: float = 1e-6) -> bool:
     on a convex polytope's graph that is not global), starting from the face's own vertex or from
     the hull facet of nearest normal: a step or two per face, O(F log F) for the whole mesh instead
     of testing every vertex against every face."""
-    from scipy.spatial import ConvexHull, QhullError, cKDTree
-
     p = np.asarray(p, dtype=np.float64)
     p = p - p.mean(axis=0)
     a = p[idx[:, 0]]
@@ -490,8 +492,6 @@ def teapot(resolution: int = 12) -> Mesh:
 
 def _packaged(name: str, shape: str) -> Mesh:
     """A mesh file shipped in scenes/data/meshes, read like any user's file (load_file), named `shape`."""
-    import dataclasses
-
     with resources.as_file(resources.files("scenes").joinpath(f"data/meshes/{name}")) as path:
         return dataclasses.replace(load_file(path), name=shape)
 
@@ -568,8 +568,6 @@ def load_file(path: str | Path, normals: str = "auto", crease_deg: float | None 
     leniently (a malformed OBJ line, a PLY face of 2 corners, relative OBJ indices) is refused here, and
     the result goes through make_mesh's checks. Every problem is a MeshError naming the file (and the
     line where there is one): no message carries Python's own text ("list index out of range")."""
-    from scenes.storage.files import read_input
-
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in MESH_FORMATS:
@@ -641,10 +639,7 @@ def _reason(exc: BaseException) -> str:
 def _trimesh_scene(path: Path, kind: str, data: bytes):
     """trimesh's scene of the file: process=False, so trimesh merges, drops and re-winds nothing and
     make_mesh sees (and refuses) what the file holds; its log stays quiet."""
-    import io
-    import logging
-
-    import trimesh
+    import trimesh  # deferred: heavy (about 0.3 s), and only mesh files need it
 
     log = logging.getLogger("trimesh")
     if not log.handlers:  # without a handler, Python's last-resort handler prints trimesh's warnings
@@ -665,7 +660,7 @@ def _flatten(path: Path, scene) -> tuple[np.ndarray, np.ndarray, np.ndarray | No
     """Every triangle mesh instance of a trimesh scene in the scene's frame: positions by the node's
     world transform, normals by its inverse transpose, winding reversed where the transform mirrors.
     Normals: None when no part has any; zero rows for the parts without (make_mesh fills those)."""
-    import trimesh
+    import trimesh  # deferred: heavy (about 0.3 s), and only mesh files need it
 
     parts, skipped = [], 0
     for node in scene.graph.nodes_geometry:

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
 
 from scenes.storage.errors import EnvMapError
 from scenes.storage.files import atomic_output
@@ -39,8 +40,6 @@ def read_exr(path: Path, max_pixels: int | None = None) -> np.ndarray:
     luminance channel Y as grey. Anything else is refused, naming what the file holds (issue 11): an
     alpha-only file is no white map, a crop of a larger display window no whole equirect map, and
     several layers or parts are no choice to make silently."""
-    import OpenEXR
-
     try:
         with OpenEXR.File(str(path), header_only=True) as f:
             # copy out now: the binding empties the header dict when the file closes
@@ -107,8 +106,6 @@ def _exr_colour_planes(path: Path, channels: dict[str, np.ndarray]) -> list[np.n
 
 def write_exr(path: Path, rgb: np.ndarray, alpha: np.ndarray | None = None, half: bool = False) -> None:
     """Write float32 (or half) R, G, B[, A] channels, ZIP-compressed, scanline order top first."""
-    import OpenEXR
-
     rgb = np.asarray(rgb)
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise ValueError(f"write_exr expects (H, W, 3), got {rgb.shape}")

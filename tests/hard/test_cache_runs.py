@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import errno
 import os
+import tempfile
 
 import numpy as np
 import pytest
@@ -30,7 +31,7 @@ def test_full_disk_warns_and_returns_the_render(tmp_path, monkeypatch):
     def no_space(*args, **kwargs):
         raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
 
-    monkeypatch.setattr(cache.tempfile, "mkstemp", no_space)
+    monkeypatch.setattr(tempfile, "mkstemp", no_space)
     with pytest.warns(cache.CacheWarning, match="No space left on device"):
         out = groundtruth.render(tiny())
     # the render itself, unharmed: bit-identical to an uncached render of the same seed (same variant)
@@ -46,7 +47,7 @@ def test_read_only_cache_warns_and_returns_the_render(tmp_path, monkeypatch):
         def read_only(*args, **kwargs):
             raise PermissionError(errno.EACCES, os.strerror(errno.EACCES))
 
-        monkeypatch.setattr(cache.tempfile, "mkstemp", read_only)
+        monkeypatch.setattr(tempfile, "mkstemp", read_only)
     else:
         folder.chmod(0o500)
     with pytest.warns(cache.CacheWarning, match="cannot be written"):

@@ -15,10 +15,10 @@ import pytest
 import trimesh
 from numpy.polynomial import legendre
 
-from groundtruth.pathtracer.reference_cache import CacheWarning
 from realtime.techniques.prt import prt_transfer as prt
 from realtime.techniques.prt.prt_transfer import TransferObject, cached_transfer, transfer
 from scenes.environment.shbasis import count, sh_basis
+from scenes.storage.disk_cache import CacheWarning
 
 ORDERS = [2, 3, 4]
 

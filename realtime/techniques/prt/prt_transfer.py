@@ -53,7 +53,7 @@ barycentrics by `trimesh.triangles.points_to_barycentric`, clamped to the triang
 chunks of at most MAX_RAYS_PER_CHUNK rays (bounded memory, for the SH evaluation of the occluded
 directions too).
 
-Cache (`cached_transfer`): `groundtruth.pathtracer.reference_cache.cache_dir() / "prt" / "<key>.npz"`, key = SHA-256 of
+Cache (`cached_transfer`): `scenes.storage.disk_cache.cache_dir() / "prt" / "<key>.npz"`, key = SHA-256 of
 every object's positions / normals / indices (dtype, shape, bytes), kd, two_sided, order, rays,
 bounces, shadowed, seed and TRANSFER_VERSION. Atomic writes (temporary file + os.replace), a SHA-256 of
 the arrays in each entry checked on read; a corrupt entry is recomputed with a CacheWarning, an
@@ -351,7 +351,7 @@ def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
 
 
 def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] | None:
-    from groundtruth.pathtracer.reference_cache import CacheWarning
+    from scenes.storage.disk_cache import CacheWarning
 
     if not path.exists():
         return None
@@ -371,7 +371,7 @@ def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] 
 
 
 def _store(folder, key: str, arrays: list[np.ndarray], meta: dict) -> bool:
-    from groundtruth.pathtracer.reference_cache import CacheWarning, write_npz
+    from scenes.storage.disk_cache import CacheWarning, write_npz
 
     meta_json = json.dumps(meta, sort_keys=True)
     try:
@@ -386,7 +386,7 @@ def _store(folder, key: str, arrays: list[np.ndarray], meta: dict) -> bool:
 
 def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
                     seed: int = 0, progress: bool = False) -> tuple[list[np.ndarray], dict]:
-    """transfer(), cached on disk under groundtruth.pathtracer.reference_cache.cache_dir() / "prt" / f"{key}.npz"
+    """transfer(), cached on disk under scenes.storage.disk_cache.cache_dir() / "prt" / f"{key}.npz"
     (atomic write:
     temp file + os.replace; a corrupt/unreadable entry is recomputed with a warning; an unwritable cache dir is a
     warning, not a failure), keyed by SHA-256 of every object's positions/normals/indices bytes, kd, two_sided,
@@ -397,7 +397,7 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     rays_traced is the number of rays the transfer took (vertices x rays when shadowed, else 0), also when it
     came from the cache (then `cached` is True and `seconds` 0: none were traced now).
     """
-    from groundtruth.pathtracer.reference_cache import cache_dir
+    from scenes.storage.disk_cache import cache_dir
 
     _check_settings(int(order), int(rays), int(bounces), shadowed)
     objs = [_check_object(i, o) for i, o in enumerate(objects)]  # validate before hashing
