@@ -19,11 +19,14 @@ $(STAMP): pyproject.toml
 system-deps:
 	@bash .ci/system-deps.sh
 
+# the import contracts of docs/architecture.md first (seconds), then the tests
 test: setup
 	@bash .ci/system-deps.sh --test
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest -q
 
 test-fast: setup
+	$(VENV)/bin/lint-imports
 	$(PY) -m pytest -q -m "not slow"
 
 paper: setup
