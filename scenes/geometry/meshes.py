@@ -24,6 +24,7 @@ from scipy.sparse.csgraph import connected_components
 from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from scenes.environment.directions import normalize, rotation_xyz
+from scenes.geometry import gltf_check
 from scenes.storage.errors import MeshError
 from scenes.storage.files import read_input
 
@@ -595,10 +596,11 @@ def _read(path: Path, kind: str, data: bytes) -> tuple[np.ndarray, np.ndarray, n
     elif kind == "ply":
         faces = _ply_faces(path, data)
     elif kind == "stl":
-        faces = _stl_faces(data)
+        faces = _stl_faces(path, data)
     elif kind == "off":
         faces = _off_faces(data)
     else:
+        gltf_check.check(path, kind, data)  # the specification's structure, before trimesh's lenient reading
         faces = 0
     check_triangle_count(str(path), faces)  # at least one triangle per face: refused before parsing
     try:
@@ -823,12 +825,15 @@ def _ply_faces(path: Path, data: bytes) -> int:
     return counts.get("face", 0)
 
 
-def _stl_faces(data: bytes) -> int:
-    """The triangle count of a binary STL (the header's, when the file length agrees) or an ASCII one."""
+def _stl_faces(path: Path, data: bytes) -> int:
+    """The triangle count of a binary STL (the header's, when the file length agrees) or an ASCII one,
+    whose `solid` must close with `endsolid` (a file without it is cut short, and trimesh reads no face)."""
     if len(data) >= 84:
         count = int(np.frombuffer(data, "<u4", 1, 80)[0])
         if len(data) == 84 + 50 * count:
             return count
+    if data.lstrip().lower().startswith(b"solid") and b"endsolid" not in data.lower():
+        raise MeshError(f"{path}: an ASCII STL whose 'solid' is never closed by 'endsolid' (cut short?)")
     return data.count(b"endfacet")
 
 
