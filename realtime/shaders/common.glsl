@@ -22,9 +22,11 @@ vec3 env_lookup_uv(sampler2D env, float u, float v) {
     float row = v * float(H - 1);
     float c0f = floor(col);
     float fc = col - c0f;
+    // u is in [0, 1), so col is in [-0.5, W - 0.5) and c0 in [-1, W - 1]: wrap -1 by hand (GLSL's %
+    // is undefined for negative operands, and llvmpipe gets it wrong unless W is a power of two)
     int c0 = int(c0f);
-    c0 = ((c0 % W) + W) % W;
-    int c1 = (c0 + 1) % W;
+    if (c0 < 0) c0 += W;
+    int c1 = c0 + 1 == W ? 0 : c0 + 1;
     int r0 = clamp(int(floor(row)), 0, max(H - 2, 0));
     int r1 = min(r0 + 1, H - 1);
     float fr = clamp(row - float(r0), 0.0, 1.0);

@@ -25,6 +25,11 @@ READERS = {".exr": imageio.read_exr, ".hdr": imageio.read_hdr, ".rgbe": imageio.
 #: samples of it in float32 (Mitsuba's envmap CDF, the film, the SH projection), which overflow near
 #: the float32 maximum; 1e20 leaves them 1e18 of headroom (a sun is 1e5 ... 1e9 times the sky)
 MAX_RADIANCE = 1e20
+#: the fewest rows a map may have. Rows are samples from pole to pole (row = v (H - 1)), which 2 rows
+#: satisfy, but Mitsuba 3's `envmap` reads a 2-row map as if its last row were doubled (row = 2 v: the
+#: south half of the sphere takes the last row's value, measured in tests/scenes/test_tiny_maps.py),
+#: while it agrees with `lookup` to float precision from 3 rows on and for any width.
+MIN_ROWS = 3
 
 
 class SanitizedWarning(UserWarning):
@@ -46,8 +51,6 @@ def read(path: str | Path, sanitize: bool = False, max_pixels: int | None = None
     if problem:
         raise EnvMapError(f"{path}: environment map {problem}")
     rgb = reader(path, max_pixels=max_pixels)
-    if rgb.shape[0] < 2:
-        raise EnvMapError(f"{path}: an equirect map needs at least 2 rows, got {rgb.shape[0]}")
     return validate(rgb, str(path), sanitize=sanitize)
 
 
@@ -56,6 +59,9 @@ def validate(rgb: np.ndarray, name: str = "environment", sanitize: bool = False)
     rgb = np.asarray(rgb, dtype=np.float32)
     if rgb.ndim != 3 or rgb.shape[2] != 3:
         raise EnvMapError(f"{name}: expected an (H, W, 3) RGB image, got shape {rgb.shape}")
+    if rgb.shape[0] < MIN_ROWS:
+        raise EnvMapError(f"{name}: an equirect map needs at least {MIN_ROWS} rows, got {rgb.shape[0]} (Mitsuba "
+                          "reads a 2-row map differently from its own lookup: the renderers would not agree)")
     bad = ~np.isfinite(rgb) | (rgb < 0)
     count = int(bad.sum())
     if count == 0:

@@ -145,9 +145,10 @@ def test_validate_refuses_by_default_and_checks_the_shape(hdr_image):
             envmap.validate(np.ones(shape, np.float32))
 
 
-def test_two_rows_are_the_least_an_equirect_map_needs(tmp_path):
-    envmap.write(tmp_path / "two.exr", np.ones((2, 4, 3), np.float32))
-    assert envmap.read(tmp_path / "two.exr").shape == (2, 4, 3)
-    envmap.write(tmp_path / "one.exr", np.ones((1, 4, 3), np.float32))
-    with pytest.raises(EnvMapError, match="needs at least 2 rows, got 1"):
-        envmap.read(tmp_path / "one.exr")
+def test_three_rows_are_the_least_an_equirect_map_needs(tmp_path):
+    envmap.write(tmp_path / "three.exr", np.ones((3, 1, 3), np.float32))
+    assert envmap.read(tmp_path / "three.exr").shape == (3, 1, 3)
+    for rows in (1, 2):
+        envmap.write(tmp_path / f"{rows}.exr", np.ones((rows, 4, 3), np.float32))
+        with pytest.raises(EnvMapError, match=f"{rows}.exr: an equirect map needs at least 3 rows, got {rows}"):
+            envmap.read(tmp_path / f"{rows}.exr")
