@@ -66,18 +66,22 @@ class CellGrid:
 
     def _cell_averages(self, env: np.ndarray) -> np.ndarray:
         env_h, env_w = env.shape[:2]
-        ss = max(1, math.ceil(2 * env_w / self.w))  # >= 2 lookups per environment texel
-        off = (np.arange(ss) + 0.5) / ss
+        # >= 2 lookups per environment texel along each axis, counted apart: a map much wider than tall
+        # (3 x 100000) needs many lookups along u only, not that many squared
+        ss_u = max(1, math.ceil(2 * env_w / self.w))
+        ss_v = max(1, math.ceil(2 * env_h / self.h))
+        off_u = (np.arange(ss_u) + 0.5) / ss_u
+        off_v = (np.arange(ss_v) + 0.5) / ss_v
         out = np.empty((self.h, self.w, 3), dtype=np.float64)
-        rows_per_block = max(1, 2_000_000 // (self.w * ss * ss))
+        rows_per_block = max(1, 2_000_000 // (self.w * ss_u * ss_v))
+        u = ((np.arange(self.w)[:, None] + off_u[None, :]) / self.w).reshape(-1)  # (W*ss_u,)
         for r0 in range(0, self.h, rows_per_block):
             r1 = min(self.h, r0 + rows_per_block)
-            v = ((np.arange(r0, r1)[:, None] + off[None, :]) / self.h).reshape(-1)  # (R*ss,)
-            u = ((np.arange(self.w)[:, None] + off[None, :]) / self.w).reshape(-1)  # (W*ss,)
+            v = ((np.arange(r0, r1)[:, None] + off_v[None, :]) / self.h).reshape(-1)  # (R*ss_v,)
             vals = envmap.lookup(env, uv_to_direction(u[None, :], v[:, None])).astype(np.float64)
             wt = np.sin(np.pi * v)[:, None, None]  # solid angle density within the cell
-            vals = (vals * wt).reshape(r1 - r0, ss, self.w, ss, 3).sum(axis=(1, 3))
-            wsum = wt.reshape(r1 - r0, ss).sum(axis=1) * ss
+            vals = (vals * wt).reshape(r1 - r0, ss_v, self.w, ss_u, 3).sum(axis=(1, 3))
+            wsum = wt.reshape(r1 - r0, ss_v).sum(axis=1) * ss_u
             out[r0:r1] = vals / np.maximum(wsum, 1e-300)[:, None, None]
         return out
 
