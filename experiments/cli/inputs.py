@@ -4,7 +4,9 @@ from __future__ import annotations
 
 from typing import Any
 
+import scenes
 from scenes import InputError
+from scenes.model.scene import parse_literal
 
 
 class UsageError(InputError):
@@ -23,8 +25,6 @@ def parse_sets(items: list[str] | None) -> dict[str, str]:
 
 
 def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
-    import scenes
-
     scene = scenes.load(spec)
     overrides = parse_sets(sets)
     if sanitize:
@@ -35,8 +35,6 @@ def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False)
 def parse_axis(item: str) -> tuple[str, list[Any]]:
     """`--axis KEY=V1,V2,...` -> (KEY, [V1, V2, ...]); values are TOML literals (2, 0.5, "box" or box,
     [0, 0, 4]: commas inside brackets do not split)."""
-    from scenes.model.scene import parse_literal
-
     key, sep, values = item.partition("=")
     key = key.strip()
     if not sep or not key or not values.strip():

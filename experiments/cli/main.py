@@ -1,6 +1,6 @@
-"""The `iblcheck` command line (design.md section 6).
+"""The `iblcheck` command line (docs/design.md, section 6).
 
-Exit codes (issue 11: each keeps one meaning, so a crashed CI gate never reads as a failed one):
+Exit codes (each keeps one meaning, so a crashed CI gate never reads as a failed one):
 
     0    success
     1    a gate failed (only ever that)
@@ -16,14 +16,26 @@ bounded length).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import sys
 import traceback
 import warnings
+from pathlib import Path
+from types import ModuleType
 
+from experiments.cli import render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
+from experiments.measure import comparison
+from experiments.measure.results import folder_lock
+from experiments.paper import registry
+from experiments.paper import suite as paper
+from experiments.paper.context import CommandLine
+from experiments.publish import outputs, report
 from experiments.publish.text import one_line
+from experiments.runs import gate, sweep
 from scenes import InputError, MissingCapability
+from scenes.model.scene import SCHEMA
 
 EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
 
@@ -36,8 +48,6 @@ class _Parser(argparse.ArgumentParser):
 
 def threshold(key: str):
     """An argparse type for a gate threshold: a finite number in the range of the scene's [gate] key."""
-    from scenes.model.scene import SCHEMA
-
     check, allowed = SCHEMA["gate"][key]
 
     def parse(text: str) -> float:
@@ -136,12 +146,32 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("dir")
     rep.set_defaults(func=_cmd_report)
 
-    pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)")
+    pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
+                        description="Run the paper's experiments E1 ... E10 in number order into OUT. Rows already "
+                                    "in OUT/results.jsonl are reused, never computed again (an interrupted run "
+                                    "resumes).")
     pa.add_argument("--out", default="reports/paper")
     pa.add_argument("--quick", action="store_true")
+    pa.add_argument("--only", type=experiment_list, metavar="E8,E10",
+                    help="run only these experiments (comma-separated, any case, E08 = E8; valid: "
+                         f"{', '.join(registry.names())}). The others' rows stay in OUT/results.jsonl and their "
+                         "sections in summary.md and index.html as an earlier run of the same kind (quick or "
+                         "full) left them; the page's subtitle names them (after a run of the other kind they "
+                         "are left out, and it says so)")
     add_cluster_options(pa)
     pa.set_defaults(func=_cmd_paper)
     return p
+
+
+def experiment_list(text: str) -> list[ModuleType]:
+    """An argparse type for `--only`: comma-separated experiment names -> their modules, in number order."""
+    names = [x for x in text.split(",") if x.strip()]
+    if not names:
+        raise argparse.ArgumentTypeError(f"{text!r}: name at least one experiment ({', '.join(registry.names())})")
+    try:
+        return registry.select(names)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _workers(text: str) -> int:
@@ -166,18 +196,10 @@ def add_cluster_options(parser: argparse.ArgumentParser) -> None:
 
 
 def _cmd_render(args: argparse.Namespace) -> int:
-    from experiments.cli import render_cmd
-
     return render_cmd.run(args)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    import json
-
-    from experiments.measure import comparison
-    from experiments.publish import outputs
-    from experiments.runs import gate
-
     scene = load_scene(args.scene, args.set, args.sanitize)
     with outputs.progress("compare", 4) as step:
         result = gate.measure(scene, step, noise=False).metrics
@@ -189,10 +211,6 @@ def _cmd_compare(args: argparse.Namespace) -> int:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from experiments.runs import sweep
-
     axes = sweep.Axes(face_sizes=parse_list(args.face_sizes, int, "--face-sizes"),
                       lod_biases=parse_list(args.lod_biases, float, "--lod-biases"),
                       exponents=parse_list(args.exponents, float, "--exponents"),
@@ -206,9 +224,6 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_gate(args: argparse.Namespace) -> int:
-    from experiments.publish import outputs
-    from experiments.runs import gate
-
     cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
     tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
                   "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
@@ -237,12 +252,6 @@ def _cmd_gate(args: argparse.Namespace) -> int:
 
 
 def _cmd_report(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from experiments.measure.results import folder_lock
-    from experiments.publish import outputs, report
-    from experiments.runs import sweep
-
     folder = Path(args.dir)
     if not (folder / sweep.RESULTS).is_file():
         raise UsageError(f"{folder / sweep.RESULTS}: not found (run `iblcheck sweep --out {folder}` first)")
@@ -255,11 +264,8 @@ def _cmd_report(args: argparse.Namespace) -> int:
 
 
 def _cmd_paper(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
-    from experiments.paper import suite as paper
-
-    print(one_line(paper.run(Path(args.out), quick=args.quick, workers=args.workers, scheduler=args.scheduler)))
+    print(one_line(paper.run(Path(args.out), quick=args.quick, only=args.only, workers=args.workers,
+                             scheduler=args.scheduler, command_line=COMMAND_LINE)))
     return EXIT_OK
 
 
@@ -325,6 +331,10 @@ def run_command(args: argparse.Namespace, debug: bool = False) -> int:
         return EXIT_BAD_INPUT
     except Exception as exc:  # a bug: its own exit code, never 1 (a failed gate)
         return _internal(exc, debug)
+
+
+#: this command line's entry points, handed to the paper suite (E6 runs hostile commands through them)
+COMMAND_LINE = CommandLine(main=main, run_command=run_command)
 
 
 def _internal(exc: BaseException, debug: bool) -> int:

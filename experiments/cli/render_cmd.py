@@ -15,25 +15,23 @@ from pathlib import Path
 
 import numpy as np
 
+import groundtruth
+import realtime
 from experiments.cli.inputs import UsageError, load_scene
 from experiments.measure import metrics
 from experiments.publish import images, outputs
+from groundtruth.exact import quadrature
+from scenes.geometry.meshes import BUILTIN_MESHES
 from scenes.model.render import Render
 from scenes.storage import imageio
 
 
 def render_with(renderer: str, scene) -> Render:
     if renderer == "realtime":
-        import realtime
-
         return realtime.render(scene)
     if renderer == "reference":
-        import groundtruth
-
         return groundtruth.render(scene)
     if renderer == "quadrature":
-        from groundtruth.exact import quadrature
-
         return quadrature.render(scene)
     raise UsageError(f"--renderer {renderer!r}: choose realtime, reference or quadrature")
 
@@ -54,8 +52,6 @@ def inputs_of(scene) -> list[str]:
     files = [] if scene.path.startswith("builtin:") else [scene.path]
     if not scene.environment.builtin_name:
         files.append(scene.environment.map)
-    from scenes.geometry.meshes import BUILTIN_MESHES
-
     return files + [o.shape for o in scene.objects if o.shape not in BUILTIN_MESHES]
 
 

@@ -1,4 +1,4 @@
-"""Hostile inputs (issue 11): names, files and values that once ran script in a report, wrote outside
+"""Hostile inputs: names, files and values that once ran script in a report, wrote outside
 the folder asked for, crashed with a traceback or were silently misread.
 
 One list of each, shared by tests/hard/ (which asserts them one by one) and E6 of the paper suite
@@ -7,10 +7,29 @@ One list of each, shared by tests/hard/ (which asserts them one by one) and E6 o
 
 from __future__ import annotations
 
+import os
+import socket
 import struct
+from collections.abc import Callable
+from html.parser import HTMLParser
 from pathlib import Path
 
 import numpy as np
+import OpenEXR
+
+from experiments.measure.results import ResultRow
+from scenes import MeshError
+from scenes.geometry import meshes
+
+
+def error_of(fn: Callable[[], object]) -> str:
+    """'Type: message' of the exception `fn` raises, or 'no error': the outcome an E6 case reports."""
+    try:
+        fn()
+    except Exception as exc:  # the message is the outcome being reported
+        return f"{type(exc).__name__}: {exc}"
+    return "no error"
+
 
 #: marks a script that ran: every payload sets this attribute on <body> (the browser test looks for it)
 PWNED = "data-pwned"
@@ -124,9 +143,6 @@ def mesh_cases() -> list[tuple[str, str, bytes]]:
 def mesh_outcome(path: Path) -> str:
     """"loaded", "refused" (a MeshError naming the file, in iblcheck's words), "raw Python text" or
     "crashed: <exception type>"."""
-    from scenes import MeshError
-    from scenes.geometry import meshes
-
     try:
         meshes.load_file(path)
     except MeshError as exc:
@@ -146,8 +162,6 @@ def truncations(data: bytes, count: int = 24) -> list[bytes]:
 
 
 def _exr(path: Path, channels: dict, header: dict | None = None) -> Path:
-    import OpenEXR
-
     head = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage, **(header or {})}
     with OpenEXR.File(head, channels) as f:
         f.write(str(path))
@@ -161,8 +175,6 @@ def _plane(value: float = 1.0, dtype=np.float32) -> np.ndarray:
 def misread_maps(folder: Path) -> list[tuple[str, Path, str]]:
     """(label, map file, a word the refusal must contain): files that hold no usable colour radiance
     or that a reader could take for something else."""
-    import OpenEXR
-
     f = Path(folder)
     rgb = {c: _plane() for c in "RGB"}
     two_parts = [OpenEXR.Part({"type": OpenEXR.scanlineimage}, rgb, name="beauty"),
@@ -199,9 +211,6 @@ def _pfm(path: Path, scale: bytes) -> Path:
 def special_paths(folder: Path, suffix: str = ".exr") -> list[tuple[str, Path, str]]:
     """(label, path, the word the refusal must contain): paths with `suffix` that are no readable
     regular file (a symbolic link loop first)."""
-    import os
-    import socket
-
     f = Path(folder)
     loop, broken, fifo, sock, device = (f / f"{n}{suffix}" for n in ("loop", "broken", "pipe", "socket", "device"))
     if not loop.is_symlink():
@@ -260,8 +269,6 @@ def cube_obj(shared: bool, half: float = 0.5) -> str:
 def hostile_rows(names=HOSTILE_NAMES) -> list:
     """Result rows carrying each hostile name in every text field a row has (scene name, map file
     name, technique and material values, overrides), for report and summary checks without rendering."""
-    from experiments.measure.results import ResultRow
-
     rows = []
     for k, (i, name) in enumerate((i, name) for i, name in enumerate(names) for _ in range(2)):
         rows.append(ResultRow(  # two LOD biases per name: the bias plot draws a panel titled with it
@@ -280,8 +287,6 @@ def hostile_rows(names=HOSTILE_NAMES) -> list:
 def page_problems(html: str) -> list[str]:
     """What in a report page could run script or reach the network: an element or attribute that a
     hostile name smuggled in, a second script, a non-local source, a missing Content-Security-Policy."""
-    from html.parser import HTMLParser
-
     allowed = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "section", "table", "thead",
                "tbody", "tr", "th", "td", "div", "figure", "figcaption", "img", "a", "details", "summary", "ul",
                "li", "pre", "code", "script"}

@@ -1,4 +1,4 @@
-"""E6's hostile-input cases (issue 11), one part per class: escaping, output paths, exit codes, silent
+"""E6's hostile-input cases, one part per class: escaping, output paths, exit codes, silent
 misreads, back faces and silhouettes, stale sweeps. experiments/paper/e06_stability.py runs them after its own
 cases; each returns rows {"class", "case", "expected", "outcome", "ok"} like the rest of E6.
 
@@ -12,29 +12,42 @@ import contextlib
 import io
 import json
 import os
+import shutil
 import tempfile
 import warnings
+import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
 
+import groundtruth
+import realtime
+import scenes
+from experiments.measure import metrics
+from experiments.measure.comparison import format_table
+from experiments.measure.results import folder_lock
 from experiments.paper import e06_hostile_cases as hostile
-from experiments.paper.e06_stability import _error_of
+from experiments.paper.context import CommandLine
+from experiments.paper.e06_hostile_cases import error_of
+from experiments.publish import report
+from experiments.publish.outputs import slug
 from experiments.publish.text import visible
+from experiments.runs import gate, sweep
+from scenes.environment import envmap
+from scenes.geometry import meshes
+from scenes.storage import imageio
 
 
 def _row(cls: str, case: str, expected: str, outcome: str, ok: bool) -> dict:
     return {"class": cls, "case": case, "expected": expected, "outcome": outcome, "ok": bool(ok)}
 
 
-def cli(*args: str) -> tuple[int, str, str]:
-    """(exit code, stdout, stderr) of `iblcheck ARGS` run in this process."""
-    from experiments.cli import main as cli_mod
-
+def run_cli(command_line: CommandLine, *args: str) -> tuple[int, str, str]:
+    """(exit code, stdout, stderr) of `iblcheck ARGS` run in this process through `command_line`."""
     out, err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
-        code = cli_mod.main(list(args))
+        code = command_line.main(list(args))
     return code, out.getvalue(), err.getvalue()
 
 
@@ -56,16 +69,20 @@ def tiny_scene(folder: Path, name: str = "tiny", env: str = "builtin:uffizi", sh
 
 
 class HostileCases:
-    def __init__(self, spp: int):
+    """The hostile-input parts of E6. `command_line`: the `iblcheck` entry points (experiments/cli hands
+    them down; this layer does not import the command line)."""
+
+    def __init__(self, spp: int, command_line: CommandLine):
         self.spp = spp
+        self.command_line = command_line
         self.tmp = Path(tempfile.mkdtemp(prefix="iblcheck-e6h-"))
+
+    def cli(self, *args: str) -> tuple[int, str, str]:
+        """(exit code, stdout, stderr) of `iblcheck ARGS`."""
+        return run_cli(self.command_line, *args)
 
     # ------------------------------------------------------------------------- 1 escaping
     def escaping(self) -> list[dict]:
-        from experiments.measure.comparison import format_table
-        from experiments.publish import report
-        from experiments.runs import gate
-
         n = len(hostile.HOSTILE_NAMES)
         rows = hostile.hostile_rows()
         index = report.build(self.tmp / "report", title=hostile.HOSTILE_NAMES[0], rows=rows,
@@ -76,8 +93,6 @@ class HostileCases:
         md = hostile.markdown_problems((self.tmp / "report" / "summary.md").read_text())
         results = [gate.GateResult(x, {"psnr": 1.0}, {"min_psnr": 2.0}, ["psnr low"]) for x in hostile.HOSTILE_NAMES]
         gate.write_junit(self.tmp / "gate.xml", results)
-        import xml.etree.ElementTree as ET
-
         try:
             names = [c.get("name") for c in ET.parse(self.tmp / "gate.xml").getroot().iter("testcase")]
             junit = f"parses, {len(names)} test cases"
@@ -102,7 +117,7 @@ class HostileCases:
         names = [x for x in hostile.HOSTILE_NAMES]
         bad = []
         for x in names:
-            code, _, err = cli("render", str(self.tmp / f"{hostile.file_safe(x)}.toml"), "--set", f"name={x}")
+            code, _, err = self.cli("render", str(self.tmp / f"{hostile.file_safe(x)}.toml"), "--set", f"name={x}")
             ok, line = error_line(code, err)
             if not ok or hostile.terminal_problems(line):
                 bad.append(visible(x))
@@ -111,13 +126,11 @@ class HostileCases:
 
     # ------------------------------------------------------------------------- 2 output paths
     def output_paths(self) -> list[dict]:
-        from experiments.publish.outputs import slug
-
         rows = []
         scene = tiny_scene(self.tmp, "../../escape")
         before = set(os.listdir(self.tmp.parent))
         with contextlib.chdir(self.tmp):
-            code, out, err = cli("render", str(scene))
+            code, out, err = self.cli("render", str(scene))
         written = sorted(p.name for p in self.tmp.glob("*-realtime.*"))
         leaked = set(os.listdir(self.tmp.parent)) - before
         rows.append(_row("output paths", 'render without -o, name = "../../escape"',
@@ -132,7 +145,7 @@ class HostileCases:
                          all(s and "/" not in s and not s.startswith(".") and len(s) <= 64 for s in slugs)))
         for label, args in self._bad_outputs(scene):
             leftovers_before = self._leftovers()
-            code, _, err = cli(*args)
+            code, _, err = self.cli(*args)
             ok, line = error_line(code, err)
             extra = self._leftovers() - leftovers_before
             rows.append(_row("output paths", label, "exit 2 before anything renders, one error line, no file left",
@@ -146,8 +159,6 @@ class HostileCases:
         (f / "out.png").mkdir(exist_ok=True)
         if not (f / "pipe.exr").exists():
             os.mkfifo(f / "pipe.exr")
-        from scenes.storage import imageio
-
         imageio.write_exr(f / "own.exr", np.full((8, 16, 3), 0.5, np.float32))
         return [("-o inside a file (a-file/out.exr)", ["render", str(scene), "-o", str(f / "a-file/out.exr")]),
                 ("-o a folder", ["render", str(scene), "-o", str(f / "a-folder.exr")]),
@@ -169,8 +180,6 @@ class HostileCases:
 
     # ------------------------------------------------------------------------- 3 exit codes
     def exit_codes(self) -> list[dict]:
-        from experiments.cli import main as cli_mod
-
         rows = []
         for label, exc, want in (("an internal error (ZeroDivisionError)", ZeroDivisionError("division by zero"), 4),
                                  ("an internal error (AttributeError)", AttributeError("x"), 4),
@@ -181,13 +190,13 @@ class HostileCases:
 
             err = io.StringIO()
             with contextlib.redirect_stderr(err):
-                code = cli_mod.run_command(argparse.Namespace(func=boom))
+                code = self.command_line.run_command(argparse.Namespace(func=boom))
             lines = err.getvalue().strip().splitlines()
             rows.append(_row("exit codes", label, f"exit {want}, one error line, no traceback",
                              f"exit {code}: {lines[0][:120] if lines else ''}",
                              code == want and len(lines) == 1 and "Traceback" not in err.getvalue()))
         for label, args in self._crashers():
-            code, _, err = cli(*args)
+            code, _, err = self.cli(*args)
             ok, line = error_line(code, err)
             rows.append(_row("exit codes", label, "exit 2, one error line", f"exit {code}: {line[:160]}", ok))
         rows += self._finite_extremes()
@@ -203,8 +212,6 @@ class HostileCases:
         (f / "deep50.toml").write_text("name = 'd'\n[camera]\norigin = " + "[" * 50 + "]" * 50 + "\n")
         big = np.full((8, 16, 3), 0.5, np.float32)
         big[2, 3] = 3e38
-        from scenes.storage import imageio
-
         imageio.write_exr(f / "huge.exr", big)
         bad_rows = f / "rows"
         bad_rows.mkdir(exist_ok=True)
@@ -230,10 +237,6 @@ class HostileCases:
                 ("--max-flip -0.5", ["gate", str(scene), "--max-flip=-0.5"])]
 
     def _finite_extremes(self) -> list[dict]:
-        import realtime
-        import scenes
-        from scenes.storage import imageio
-
         rows = []
         for value in (1e19, 1e20):
             rgb = np.full((8, 16, 3), 0.5, np.float32)
@@ -248,19 +251,17 @@ class HostileCases:
 
     # ------------------------------------------------------------------------- 4 silent misreads
     def misreads(self) -> list[dict]:
-        from scenes.environment import envmap
-
         rows = []
         folder = self.tmp / "maps"
         folder.mkdir(exist_ok=True)
         for label, path, word in hostile.misread_maps(folder):
-            err = _error_of(lambda p=path: envmap.read(p))
+            err = error_of(lambda p=path: envmap.read(p))
             rows.append(_row("silent misreads", label, f"refused, naming what it holds ({word})", err[:200],
                              word in err and path.name in err and not hostile.python_text(err)))
         special = self.tmp / "special"
         special.mkdir(exist_ok=True)
         for label, path, word in hostile.special_paths(special):
-            err = _error_of(lambda p=path: envmap.read(p))
+            err = error_of(lambda p=path: envmap.read(p))
             rows.append(_row("silent misreads", f"{label} given as a map", f"says so ({word})", err[:200], word in err))
         rows += self._mesh_fuzz()
         rows += self._long_values()
@@ -284,10 +285,8 @@ class HostileCases:
                      f"that leaves a valid mesh); otherwise: {bad or 'none'}", not bad)]
 
     def _long_values(self) -> list[dict]:
-        from scenes.geometry import meshes
-
         scene = tiny_scene(self.tmp, "long")
-        code, _, err = cli("render", str(scene), "--set", "objects.0.material.kd=[" + "0.5," * 1_000_000 + "0.5]")
+        code, _, err = self.cli("render", str(scene), "--set", "objects.0.material.kd=[" + "0.5," * 1_000_000 + "0.5]")
         ok, line = error_line(code, err)
         rows = [_row("silent misreads", "a kd of a million numbers", "one line of sensible length naming the key",
                      f"{len(line)} characters: {line[-90:]}", ok and len(line) < 1000 and "material.kd" in line)]
@@ -296,7 +295,7 @@ class HostileCases:
         path.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\n" + "f 1 2 3\n" * 101)
         try:
             meshes.MAX_TRIANGLES = 100
-            err = _error_of(lambda: meshes.load_file(path))
+            err = error_of(lambda: meshes.load_file(path))
         finally:
             meshes.MAX_TRIANGLES = limit
         rows.append(_row("silent misreads", f"a mesh over the face limit (the limit is {limit}; 100 for this case)",
@@ -322,11 +321,6 @@ class HostileCases:
         return rows
 
     def _compare_row(self, label: str, ov: dict) -> dict:
-        import groundtruth
-        import realtime
-        import scenes
-        from experiments.measure import metrics
-
         s = scenes.load("builtin:sphere-blend").with_overrides({**self._small(), **ov})
         rt, ref = realtime.render(s), groundtruth.render(s)
         mask = metrics.common_mask(rt.mask, ref.mask)
@@ -337,9 +331,6 @@ class HostileCases:
                     psnr is not None and psnr > 15)
 
     def _inside_row(self) -> dict:
-        import realtime
-        import scenes
-
         s = scenes.load("builtin:sphere-blend").with_overrides({**self._small(), "camera.origin": [0.0, 0.0, 0.3],
                                                                 "objects.0.scale": 2.0})
         one, two = realtime.render(s), realtime.render(s.with_overrides({"objects.0.material.two_sided": True}))
@@ -353,8 +344,6 @@ class HostileCases:
 
     # ------------------------------------------------------------------------- 6 stale sweeps
     def stale_sweeps(self) -> list[dict]:
-        from experiments.runs import sweep
-
         rows = []
         scene = tiny_scene(self.tmp, "stale", env=str(self._map()), shape=str(self._mesh()))
         spec = str(scene)
@@ -381,14 +370,10 @@ class HostileCases:
         return rows
 
     def _map(self, value: float = 0.5) -> Path:
-        from scenes.storage import imageio
-
         imageio.write_exr(self.tmp / "a.exr", np.full((8, 16, 3), value, np.float32))
         return self.tmp / "a.exr"
 
     def _map_copies(self) -> list[str]:
-        import shutil
-
         shutil.copy(self.tmp / "a.exr", self.tmp / "copy-of-a.exr")
         return [str(self.tmp / "a.exr"), os.path.join(str(self.tmp), ".", "a.exr"), str(self.tmp / "copy-of-a.exr")]
 
@@ -398,12 +383,10 @@ class HostileCases:
         return path
 
     def _lock_row(self, scene: Path) -> dict:
-        from experiments.measure.results import folder_lock
-
         out = self.tmp / "locked"
         out.mkdir(exist_ok=True)
         with folder_lock(out):
-            code, _, err = cli("sweep", str(scene), "--face-sizes", "8", "--lod-biases", "0", "--out", str(out))
+            code, _, err = self.cli("sweep", str(scene), "--face-sizes", "8", "--lod-biases", "0", "--out", str(out))
         ok, line = error_line(code, err)
         return _row("stale sweeps", "a second sweep into a folder being written", "refused (exit 2)",
                     line[:160], ok and "another iblcheck" in line)

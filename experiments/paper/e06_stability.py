@@ -1,10 +1,10 @@
-"""Experiment E6, stability: every hard case run once, with what happened.
+"""E6 of the paper suite, stability: every hard case run once, with what happened.
 
 Each case returns a row: its class, the case, what is expected, and the outcome observed (value
 ranges, the error message, the SH window chosen). A case whose outcome breaks its expectation is
 marked "UNEXPECTED" in the table; the same cases are asserted in tests/hard/. The hostile-input
-classes of issue 11 (escaping, output paths, exit codes, silent misreads, back faces, stale sweeps)
-are in experiments/paper/e06_hostile_runs.py.
+classes (escaping, output paths, exit codes, silent misreads, back faces, stale sweeps) are run by
+experiments/paper/e06_hostile_runs.py on the inputs of experiments/paper/e06_hostile_cases.py.
 """
 
 from __future__ import annotations
@@ -13,11 +13,35 @@ import shutil
 import tempfile
 import warnings
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
+import groundtruth
+import realtime
+import scenes
 from experiments.measure import metrics
+from experiments.measure.comparison import compare
+from experiments.paper.context import CommandLine, Context
+from experiments.paper.e06_hostile_cases import error_of
+from experiments.paper.e06_hostile_runs import HostileCases
+from experiments.publish.report import Section, md_table, paragraph, table
+from groundtruth.exact import quadrature
+from scenes.environment import envmap
+from scenes.storage import imageio
+
+NUMBER = 6
+TITLE = "E6 stability: hard cases"
+
+
+@dataclass(frozen=True)
+class Settings:
+    spp: int  # reference samples per pixel of the cases that render one
+
+
+QUICK = Settings(spp=64)
+FULL = Settings(spp=256)
 
 SMALL = {"camera.width": 48, "camera.height": 48, "realtime.timing_frames": 3, "realtime.warmup_frames": 1}
 
@@ -26,28 +50,15 @@ def _range(rgb: np.ndarray) -> str:
     return f"min {float(rgb.min()):.3g}, max {float(rgb.max()):.3g}, finite {bool(np.isfinite(rgb).all())}"
 
 
-def _error_of(fn: Callable[[], object]) -> str:
-    try:
-        fn()
-    except Exception as exc:  # the message is the outcome being reported
-        return f"{type(exc).__name__}: {exc}"
-    return "no error"
-
-
 class Cases:
     def __init__(self, spp: int):
         self.spp = spp
         self.tmp = Path(tempfile.mkdtemp(prefix="iblcheck-e6-"))
 
     def scene(self, name: str, **ov):
-        import scenes
-
         return scenes.load(name).with_overrides({**SMALL, "reference.spp": self.spp, **ov})
 
     def sun_windows(self) -> list[dict]:
-        import groundtruth
-        import realtime
-
         rows = []
         for sun in (1e3, 1e4, 1e6):
             base = self.scene("builtin:sphere-sky", **{"environment.params.sun": sun,
@@ -71,10 +82,6 @@ class Cases:
         return rows
 
     def exponents(self) -> list[dict]:
-        import groundtruth
-        import realtime
-        from groundtruth.exact import quadrature
-
         rows = []
         for n in (0.0, 1.0, 1e4, 1e6):
             s = self.scene("builtin:sphere-phong", **{"objects.0.material.exponent": n,
@@ -88,8 +95,6 @@ class Cases:
         return rows
 
     def sizes(self) -> list[dict]:
-        import realtime
-
         rows = []
         for label, ov in (("cube face 1", {"realtime.face_size": 1}), ("cube face 2", {"realtime.face_size": 2}),
                           ("cube face 4", {"realtime.face_size": 4}),
@@ -99,22 +104,18 @@ class Cases:
             r = realtime.render(self.scene("builtin:sphere-blend", **ov))
             rows.append({"case": label, "expected": "finite", "outcome": f"{_range(r.rgb)}; total "
                          f"{r.timings['total']:.1f} ms", "ok": bool(np.isfinite(r.rgb).all())})
-        err = _error_of(lambda: self.scene("builtin:sphere-blend", **{"realtime.base_size": 100}))
+        err = error_of(lambda: self.scene("builtin:sphere-blend", **{"realtime.base_size": 100}))
         rows.append({"case": "base_size 100", "expected": "refused: not a power of two", "outcome": err,
                      "ok": "power of two" in err})
         return rows
 
     def inputs(self) -> list[dict]:
-        import realtime
-        from scenes.environment import envmap
-        from scenes.storage import imageio
-
         rows = []
         bad = np.ones((16, 32, 3), np.float32)
         bad[2, 3] = np.nan
         bad[5, 7, 2] = -4.0
         imageio.write_exr(self.tmp / "nan.exr", bad)
-        err = _error_of(lambda: envmap.read(self.tmp / "nan.exr"))
+        err = error_of(lambda: envmap.read(self.tmp / "nan.exr"))
         rows.append({"case": "NaN and negative pixels", "expected": "refused, counted, named", "outcome": err,
                      "ok": "nan.exr" in err and "4 invalid" in err})
         with warnings.catch_warnings(record=True) as caught:
@@ -125,10 +126,10 @@ class Cases:
                      "ok": bool(np.isfinite(fixed).all() and caught)})
         data = (self.tmp / "nan.exr").read_bytes()
         (self.tmp / "cut.exr").write_bytes(data[: len(data) // 2])
-        err = _error_of(lambda: envmap.read(self.tmp / "cut.exr"))
+        err = error_of(lambda: envmap.read(self.tmp / "cut.exr"))
         rows.append({"case": "truncated EXR", "expected": "refused, named", "outcome": err, "ok": "cut.exr" in err})
         (self.tmp / "junk.hdr").write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 8 +X 8\n" + b"\x02\x02" * 3)
-        err = _error_of(lambda: envmap.read(self.tmp / "junk.hdr"))
+        err = error_of(lambda: envmap.read(self.tmp / "junk.hdr"))
         rows.append({"case": "corrupt HDR", "expected": "refused, named", "outcome": err, "ok": "junk.hdr" in err})
         for label, rgb in (("all-black map", np.zeros((16, 32, 3), np.float32)),
                            ("one 1e6 hot pixel", self._hot()),
@@ -150,10 +151,6 @@ class Cases:
         return rgb
 
     def geometry(self) -> list[dict]:
-        import groundtruth
-        import realtime
-        from experiments.measure.comparison import compare
-
         rows = []
         s = self.scene("builtin:sphere-blend", **{"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0})
         rt, ref = realtime.render(s), groundtruth.render(s)
@@ -164,15 +161,12 @@ class Cases:
         out = compare(realtime.render(s), groundtruth.render(s), s)
         rows.append({"case": "object outside the view", "expected": "empty mask, metrics null, a warning",
                      "outcome": f"pixels {out['pixels']}, PSNR {out['psnr']}", "ok": out["pixels"] == 0})
-        err = _error_of(lambda: self.scene("builtin:sphere-blend", **{"camera.up": [0.0, 0.0, 1.0]}))
+        err = error_of(lambda: self.scene("builtin:sphere-blend", **{"camera.up": [0.0, 0.0, 1.0]}))
         rows.append({"case": "up parallel to the view", "expected": "refused", "outcome": err,
                      "ok": "parallel" in err})
         return rows
 
     def determinism(self) -> list[dict]:
-        import groundtruth
-        import realtime
-
         s = self.scene("builtin:sphere-blend")
         a, b = groundtruth.render(s, use_cache=False), groundtruth.render(s, use_cache=False)
         c, d = realtime.render(s), realtime.render(s)
@@ -189,8 +183,8 @@ CLASSES = {"sun_windows": "bright suns", "exponents": "exponents", "sizes": "siz
            "geometry": "geometry", "determinism": "determinism"}
 
 
-def parts(cases: Cases, hostile) -> list[tuple[str, Callable[[], list[dict]]]]:
-    """(class, part) of every E6 case group, the hostile-input classes (issue 11) last."""
+def parts(cases: Cases, hostile: HostileCases) -> list[tuple[str, Callable[[], list[dict]]]]:
+    """(class, part) of every E6 case group, the hostile-input classes last."""
     own = [(CLASSES[name], getattr(cases, name)) for name in CLASSES]
     return own + [("", part) for part in hostile.parts()]
 
@@ -199,10 +193,14 @@ def count_parts() -> int:
     return len(CLASSES) + 6
 
 
-def run(spp: int = 64, progress: Callable[[], None] | None = None) -> list[dict]:
-    from experiments.paper.e06_hostile_runs import HostileCases
+def count_steps(settings: Settings) -> int:
+    """Progress steps of `run`: one per case group."""
+    return count_parts()
 
-    cases, hostile = Cases(spp), HostileCases(spp)
+
+def run_cases(spp: int, command_line: CommandLine, progress: Callable[[], None] | None = None) -> list[dict]:
+    """Every case's row {"class", "case", "expected", "outcome", "ok"}, in the order of `parts`."""
+    cases, hostile = Cases(spp), HostileCases(spp, command_line)
     rows = []
     try:
         for cls, part in parts(cases, hostile):
@@ -216,6 +214,26 @@ def run(spp: int = 64, progress: Callable[[], None] | None = None) -> list[dict]
         for folder in (cases.tmp, hostile.tmp):
             r["outcome"] = r["outcome"].replace(str(folder) + "/", "").replace(str(folder), ".")
     return rows
+
+
+def run(context: Context, settings: Settings) -> Section:
+    """E6's cases (run every time: they are not result rows) and its section. Needs the command line's
+    entry points in `context.command_line` (the hostile cases run `iblcheck` commands)."""
+    if context.command_line is None:
+        raise ValueError("E6 runs iblcheck command lines: give the paper suite a CommandLine "
+                         "(experiments/cli/main.py does)")
+    return section(run_cases(settings.spp, context.command_line, context.progress))
+
+
+def section(rows: list[dict]) -> Section:
+    """E6's table of cases with what happened, and the count per class."""
+    header = ["class", "case", "expected", "what happened"]
+    cells = [[r.get("class", ""), r["case"], r["expected"], outcome_text(r)] for r in rows]
+    bad = sum(not r["ok"] for r in rows)
+    note = (f"{len(rows)} hard cases, {bad} unexpected ({counts(rows)}). The same cases are asserted in tests/hard/. "
+            "Sun cases: a diffuse sphere under the sky seen from below the horizon; min E is SH9 irradiance over "
+            "the sphere.")
+    return Section(TITLE, [table(header, cells), paragraph(note)], md_table(header, cells) + "\n\n" + note)
 
 
 def counts(rows: list[dict]) -> str:

@@ -1,4 +1,4 @@
-"""E7 of the paper suite: the accuracy-time ladder across real-time techniques (issue 10).
+"""E7 of the paper suite: the accuracy-time ladder across real-time techniques.
 
 For each scene (sphere-diffuse, sphere-phong at N = 10, 100, 1000, sphere-blend, and sphere-sky with its
 1e4 sun for very high dynamic range) every technique
@@ -7,19 +7,43 @@ reference would give, experiments.measure.metrics) against the frame's per-frame
 per-frame key + draw). The path tracer's own spp ladder (experiments.measure.convergence) is drawn on the
 same axes, so `equal_quality_s` — the seconds Mitsuba needs to reach a technique's quality — and the
 speed-up at equal quality (equal_quality_s / frame time) can be read off. Pareto fronts per scene.
+
+Techniques from other installed packages (the entry-point group `iblcheck.techniques`) join the ladder
+with the override points they declare (`plugin_points`), on the scenes of their effect: a diffuse
+technique on sphere-diffuse, a glossy one on the sphere-phong scenes and sphere-blend.
 """
 
 from __future__ import annotations
 
-from collections.abc import Callable
 from dataclasses import dataclass
 
+import numpy as np
+
+import scenes
+from experiments.measure import convergence
 from experiments.measure.results import ResultRow
-from experiments.publish.report import Section
+from experiments.paper.context import Context
+from experiments.publish import plots, report
+from experiments.publish.plots import frame_ms
+from experiments.publish.report import Section, f2
+from realtime.engine.context import get_context
+from realtime.engine.cube_seams import seam_residual, smooth_lobes
+from realtime.engine.gpu import EnvironmentFilter
+from realtime.engine.levels import level_of
+from realtime.techniques.prefiltered.prefilter import PhongPrefilter
+from scenes.environment import cubemap
+
+try:  # the technique registry (builtins and plugins) is not on every branch of this code yet
+    from scenes.model import technique_registry
+except ImportError:
+    technique_registry = None
+
+NUMBER = 7
+TITLE = "E7 accuracy against time across techniques"
 
 
 @dataclass(frozen=True)
-class LadderSettings:
+class Settings:
     sh: tuple[tuple[int, str], ...]  # (order, window)
     irradiance: tuple[tuple[int, int], ...]  # (size, source_size)
     box_biases: tuple[float, ...]
@@ -50,10 +74,10 @@ def pre_ov(samples: int, bias: float = 0.0) -> dict:
 _BLEND = ((sh_ov(2), box_ov()), (sh_ov(2), box_ov(0.0, "mcguire")), (sh_ov(4), box_ov(0.0, "mcguire")),
           (sh_ov(2), pre_ov(64)), (sh_ov(4), pre_ov(256)), (irr_ov(32, 32), pre_ov(64)),
           (irr_ov(32, 32), pre_ov(256)), (irr_ov(32, 32), box_ov(0.0, "mcguire")))
-QUICK = LadderSettings(sh=((2, "none"), (3, "none"), (4, "none"), (4, "hanning")), irradiance=((16, 16), (32, 32)),
+QUICK = Settings(sh=((2, "none"), (3, "none"), (4, "none"), (4, "hanning")), irradiance=((16, 16), (32, 32)),
                        box_biases=(0.0, 2.0, 4.0), samples=(16, 64, 256), fis_biases=(), blend=_BLEND[:6],
                        max_spp=1024)
-FULL = LadderSettings(sh=((2, "none"), (2, "hanning"), (3, "none"), (3, "hanning"), (4, "none"), (4, "hanning")),
+FULL = Settings(sh=((2, "none"), (2, "hanning"), (3, "none"), (3, "hanning"), (4, "none"), (4, "hanning")),
                       irradiance=((16, 16), (32, 32), (64, 32), (32, 64)),
                       box_biases=(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0), samples=(16, 64, 256, 1024),
                       fis_biases=(1.0,), blend=_BLEND,
@@ -70,49 +94,68 @@ def scene_list() -> list[tuple[str, str, dict]]:
     return out
 
 
-def configs_for(label: str, s: LadderSettings) -> list[dict]:
+def scene_effect(label: str) -> str | None:
+    """The effect whose plugin techniques run on E7's scene `label` (None: no plugin runs there)."""
     if label == "sphere-diffuse":
-        return [sh_ov(o, w) for o, w in s.sh] + [irr_ov(a, b) for a, b in s.irradiance]
-    if label.startswith("sphere-phong"):
-        return ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples]
-                + [pre_ov(64, b) for b in s.fis_biases])
-    return [{**d, **g} for d, g in s.blend]
+        return "diffuse"
+    if label.startswith("sphere-phong") or label == "sphere-blend":
+        return "glossy"
+    return None
 
 
-def count_steps(s: LadderSettings) -> int:
-    return sum(len(configs_for(label, s)) + 1 for label, _, _ in scene_list())
+def plugin_points(declarations=None) -> list[tuple[str, dict]]:
+    """(effect, overrides) of every ladder point of every technique that is not builtin, in the registry's
+    order: `{"realtime.<effect>": name, **point}` for each point of its declared `ladder`.
+    `declarations`: the registry's (scenes.model.technique_registry.declarations()) unless given."""
+    if declarations is None:
+        declarations = technique_registry.declarations() if technique_registry is not None else ()
+    return [(d.effect, {f"realtime.{d.effect}": d.name, **point})
+            for d in declarations if not d.builtin for point in d.ladder]
 
 
-def frame_ms(r: ResultRow) -> float | None:
-    return r.realtime_ms.get("total")
+def configs_for(label: str, s: Settings, plugins: list[tuple[str, dict]] = ()) -> list[dict]:
+    """The overrides of E7's rows on scene `label`: the builtin techniques' ladder, then the points of the
+    plugin techniques of the scene's effect (`plugins`, from `plugin_points`)."""
+    if label == "sphere-diffuse":
+        builtin = [sh_ov(o, w) for o, w in s.sh] + [irr_ov(a, b) for a, b in s.irradiance]
+    elif label.startswith("sphere-phong"):
+        builtin = ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples]
+                   + [pre_ov(64, b) for b in s.fis_biases])
+    else:
+        builtin = [{**d, **g} for d, g in s.blend]
+    effect = scene_effect(label)
+    return builtin + [dict(ov) for e, ov in plugins if e == effect]
 
 
-def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
-    """Render E7's rows through `suite.row` (resumable) and build its section."""
-    import scenes
-    from experiments.measure import convergence
-    from experiments.publish import plots
+def count_steps(settings: Settings) -> int:
+    """Progress steps of `run`: per scene its spp ladder and one per row."""
+    plugins = plugin_points()
+    return sum(len(configs_for(label, settings, plugins)) + 1 for label, _, _ in scene_list())
 
-    s = QUICK if quick else FULL
+
+def run(context: Context, settings: Settings) -> Section:
+    """E7's rows through `context.row` (resumable) and its section."""
+    s = settings
+    plugins = plugin_points()
     per_scene: dict[str, tuple[list[ResultRow], list]] = {}
     for label, spec, ov in scene_list():
-        scene = scenes.load(spec).with_overrides({**suite.base(), **ov})
+        scene = scenes.load(spec).with_overrides({**context.base(), **ov})
         curve = convergence.curve(scene, max_spp=s.max_spp)
-        progress()
-        rows = [suite.row(spec, {**ov, **c}, "E7", curve=curve) for c in configs_for(label, s)]
+        context.progress()
+        rows = [context.row(spec, {**ov, **c}, "E7", curve=curve) for c in configs_for(label, s, plugins)]
         per_scene[label] = (rows, curve)
     table = []
     for label, (rows, _) in per_scene.items():
         for r in sorted(rows, key=lambda r: frame_ms(r) or 0.0):
             ms = frame_ms(r)
             speed = None if r.equal_quality_s is None or not ms else r.equal_quality_s / (ms / 1e3)
-            table.append([label, r.technique_label, f2(r.psnr), f2(r.psnr_unbiased) + (" (floor)" if
-                          r.psnr_unbiased_clamped else ""), f2(ms), f2(r.realtime_ms.get("precompute")),
+            table.append([label, r.technique_label, f2(r.psnr), report.unbiased_cell(r), f2(ms),
+                          f2(r.realtime_ms.get("precompute")),
                           "-" if r.equal_quality_s is None else at_least(r) + f"{r.equal_quality_s:.3g}"
                           + (" (extrapolated)" if (r.equal_quality or "").startswith("extrapolated") else ""),
                           "-" if speed is None else f"{at_least(r)}{speed:,.3g}x"])
     figure = "figures/e7_ladder.png"
-    plot(per_scene, suite.out / figure, plots)
+    plot(per_scene, context.out / figure)
     header = ["scene", "technique", "PSNR dB", "unbiased PSNR dB", "frame ms", "precompute ms",
               "path tracer s to equal quality", "speed-up at equal quality"]
     findings = summarize(per_scene)
@@ -130,14 +173,12 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
             "quality comes from the scene's own spp ladder (two seeds per rung, its noise floor as its "
             "PSNR), sampling time only; beyond the ladder it is extrapolated with the Monte Carlo law "
             "(+6.02 dB per 4x spp).")
-    from experiments.publish import report
-
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n" + note
           + "\n\n" + report.md_table(seam_header, seams) + "\n\n" + seam_note)
     blocks = [report.bullets(findings), report.table(header, table), report.paragraph(note),
               report.figure(figure, "E7"), report.table(seam_header, seams),
-              report.paragraph(seam_note)]  # data, rendered by the template with autoescape (issue 11)
-    return Section("E7 accuracy against time across techniques", blocks, md, [figure])
+              report.paragraph(seam_note)]  # data, rendered by the template with autoescape
+    return Section(TITLE, blocks, md, [figure])
 
 
 SEAM_FACES = (64, 32, 16, 8, 4)
@@ -148,14 +189,6 @@ def seam_rows(base_size: int = 256, samples: int = 64) -> list[list[str]]:
     """Cube-edge seams (realtime/engine/cube_seams.py: the step across a face edge over the step one texel
     inward, 1 = no seam) of the box chain and of prefiltered chains, per face size, on a smooth map.
     Users of prefiltering tools report seams that grow with blur; this measures them here."""
-    import numpy as np
-
-    from realtime.engine.context import get_context
-    from realtime.engine.cube_seams import seam_residual, smooth_lobes
-    from realtime.engine.gpu import EnvironmentFilter
-    from realtime.techniques.prefiltered.prefilter import PhongPrefilter
-    from scenes.environment import cubemap
-
     ctx = get_context()
     # a smooth map of a few wide lobes (a real probe's own detail would swamp the ratio), as base faces
     f = EnvironmentFilter(ctx, np.zeros((2, 4, 3), np.float32), base_size)
@@ -183,13 +216,7 @@ def seam_rows(base_size: int = 256, samples: int = 64) -> list[list[str]]:
 
 
 def levels_of(base_size: int, face: int) -> int:
-    from realtime.engine.levels import level_of
-
     return level_of(face, base_size)
-
-
-def f2(x) -> str:
-    return "-" if x is None else f"{x:.2f}"
 
 
 def at_least(r: ResultRow) -> str:
@@ -204,16 +231,17 @@ def family(r: ResultRow) -> str:
     t = r.techniques
     parts = []
     if "diffuse" in r.effects:
-        parts.append(f"SH{t['sh_order']}" if t.get("diffuse") == "sh" else "irradiance map")
+        d = t.get("diffuse")
+        parts.append(f"SH{t['sh_order']}" if d == "sh" else "irradiance map" if d == "irradiance_map" else d)
     if "glossy" in r.effects:
         g = t.get("glossy")
         parts.append(("box McGuire" if t.get("lod_mapping") == "mcguire" else "box") if g == "box" else g)
     return " + ".join(parts)
 
 
-def plot(per_scene: dict, path, plots) -> None:
-    import numpy as np
-
+def plot(per_scene: dict, path) -> None:
+    """Unbiased PSNR against frame ms per scene, one colour per technique family, the Pareto front and the
+    path tracer's spp ladder."""
     plt = plots.pyplot()
     n = len(per_scene)
     cols = min(n, 3)
@@ -222,11 +250,7 @@ def plot(per_scene: dict, path, plots) -> None:
     for ax in axes.flat[n:]:
         ax.set_visible(False)
     for ax, (label, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=False):
-        pts = [r for r in rows if r.psnr_unbiased is not None and frame_ms(r)]
-        fams = sorted({family(r) for r in pts})
-        for fam in fams:
-            sel = [r for r in pts if family(r) == fam]
-            ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=22, label=fam)
+        pts = plots.scatter_families(ax, rows, family)
         if pts:
             t = np.array([frame_ms(r) for r in pts])
             p = np.array([r.psnr_unbiased for r in pts])
@@ -239,13 +263,9 @@ def plot(per_scene: dict, path, plots) -> None:
 
 def pareto_steps(rows: list[ResultRow]) -> list[ResultRow]:
     """The rows of the accuracy-time Pareto front (unbiased PSNR against frame ms), cheapest first."""
-    import numpy as np
-
-    from experiments.publish.plots import pareto_front
-
     t = np.array([frame_ms(r) for r in rows])
     p = np.array([r.psnr_unbiased for r in rows])
-    return [rows[i] for i in pareto_front(t, p)]
+    return [rows[i] for i in plots.pareto_front(t, p)]
 
 
 def summarize(per_scene: dict) -> list[str]:

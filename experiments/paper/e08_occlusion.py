@@ -1,4 +1,4 @@
-"""E8 of the paper suite: what shadows and bounces cost in real time (issue 12).
+"""E8 of the paper suite: what shadows and bounces cost in real time.
 
 On scenes that call for occlusion and interreflection (bowl-diffuse, teapot-blend, sphere-on-plane),
 against the same path-traced references, with `psnr_unbiased` (the PSNR a noise-free reference would
@@ -19,20 +19,31 @@ reference). The path tracer's own spp ladder is drawn on the same axes.
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+import scenes
+from experiments.measure import convergence, metrics
 from experiments.measure.results import ResultRow
-from experiments.publish.report import Section
+from experiments.paper.context import Context
+from experiments.publish import plots, report
+from experiments.publish.plots import frame_ms
+from experiments.publish.report import Section, f2, f3, unbiased_cell
+from groundtruth.pathtracer import reference
+from realtime.techniques.prt.prt import transfer_objects
+from realtime.techniques.prt.prt_transfer import cached_transfer
+from scenes.model.scene import MAX_SHADOW_TEXELS
+
+NUMBER = 8
+TITLE = "E8 what shadows and bounces cost"
 
 SCENES = (("bowl-diffuse", "builtin:bowl-diffuse"), ("teapot-blend", "builtin:teapot-blend"),
           ("sphere-on-plane", "builtin:sphere-on-plane"))
 
 
 @dataclass(frozen=True)
-class E8Settings:
+class Settings:
     geodesic: tuple[int, ...]
     median_cut: tuple[int, ...]
     shadow_sizes: tuple[int, ...]
@@ -44,10 +55,10 @@ class E8Settings:
     max_spp: int
 
 
-QUICK = E8Settings(geodesic=(12, 42, 162), median_cut=(16, 64), shadow_sizes=(256,), prt_orders=(2, 4),
+QUICK = Settings(geodesic=(12, 42, 162), median_cut=(16, 64), shadow_sizes=(256,), prt_orders=(2, 4),
                    prt_rays=(64, 256), prt_bounces=(0, 1), split_arrays=(("geodesic", 42), ("median_cut", 64)),
                    frames=3, max_spp=256)
-FULL = E8Settings(geodesic=(4, 12, 42, 162, 642), median_cut=(4, 16, 64, 256), shadow_sizes=(256, 1024),
+FULL = Settings(geodesic=(4, 12, 42, 162, 642), median_cut=(4, 16, 64, 256), shadow_sizes=(256, 1024),
                   prt_orders=(2, 3, 4), prt_rays=(64, 256, 1024), prt_bounces=(0, 1, 2),
                   split_arrays=(("geodesic", 42), ("geodesic", 162), ("geodesic", 642), ("median_cut", 64),
                                 ("median_cut", 256)),
@@ -74,12 +85,10 @@ def prt_ov(order: int, rays: int, bounces: int) -> dict:
 
 
 def fits(count: int, size: int) -> bool:
-    from scenes.model.scene import MAX_SHADOW_TEXELS
-
     return count * size * size <= MAX_SHADOW_TEXELS
 
 
-def configs(scene, s: E8Settings) -> list[dict]:
+def configs(scene, s: Settings) -> list[dict]:
     out: list[dict] = [{}]
     arrays = [("geodesic", n) for n in s.geodesic] + [("median_cut", n) for n in s.median_cut]
     for placement, n in arrays:
@@ -90,16 +99,11 @@ def configs(scene, s: E8Settings) -> list[dict]:
     return out
 
 
-def count_steps(quick: bool) -> int:
-    import scenes
-
-    s = QUICK if quick else FULL
+def count_steps(settings: Settings) -> int:
+    """Progress steps of `run`: per scene its spp ladder, one per row, two per split array."""
+    s = settings
     per = [len(configs(scenes.load(spec), s)) + 1 + 2 * len(s.split_arrays) for _, spec in SCENES]
     return sum(per)
-
-
-def frame_ms(r: ResultRow) -> float | None:
-    return r.realtime_ms.get("total")
 
 
 def family(r: ResultRow) -> str:
@@ -147,9 +151,6 @@ def discretisation(scene, placement: str, count: int, cluster=None) -> dict:
     """The array against the environment, both path-traced: unbiased PSNR with both references' own noise
     (half the mean squared difference of their two seeds) removed from the MSE. With a Dask `cluster`
     (experiments/runs/dask_cluster.py) the four references are its tasks."""
-    from experiments.measure import metrics
-    from groundtruth.pathtracer import reference
-
     pair = reference.render_pair if cluster is None else cluster.references
     env_a, env_b = pair(scene)
     array_scene = scene.with_overrides({**lights_ov(scene, placement, count), "reference.lighting": "light_array"})
@@ -165,42 +166,38 @@ def discretisation(scene, placement: str, count: int, cluster=None) -> dict:
             "mean_ratio": float(d[2].mean() / max(d[0].mean(), 1e-12))}
 
 
-def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
-    """Render E8's rows through `suite.row` (resumable) and build its section."""
-    import scenes
-    from experiments.measure import convergence
-    from experiments.publish import report
-
-    s = QUICK if quick else FULL
+def run(context: Context, settings: Settings) -> Section:
+    """E8's rows through `context.row` (resumable) and its section."""
+    s = settings
     timing = {"realtime.timing_frames": s.frames, "realtime.warmup_frames": 1}
     per_scene: dict[str, tuple[list[ResultRow], list]] = {}
     splits: list[list[str]] = []
     for name, spec in SCENES:
-        scene = scenes.load(spec).with_overrides(suite.base())
+        scene = scenes.load(spec).with_overrides(context.base())
         curve = convergence.curve(scene, max_spp=s.max_spp)
-        progress()
-        rows = [with_prt_seconds(suite, suite.row(spec, {**timing, **c}, "E8", curve=curve))
+        context.progress()
+        rows = [with_prt_seconds(context, context.row(spec, {**timing, **c}, "E8", curve=curve))
                 for c in configs(scene, s)]
         per_scene[name] = (rows, curve)
         for placement, count in s.split_arrays:
-            d = discretisation(scene, placement, count, suite.cluster)
-            progress()
+            d = discretisation(scene, placement, count, context.cluster)
+            context.progress()
             size = max(z for z in s.shadow_sizes if fits(count, z))
-            exact = suite.row(spec, {**timing, **lights_ov(scene, placement, count, size),
+            exact = context.row(spec, {**timing, **lights_ov(scene, placement, count, size),
                                      "reference.lighting": "light_array", "reference.integrator": "direct"}, "E8")
             splits.append([name, f"{count} {placement.replace('_', ' ')}", f2(d["psnr_unbiased"])
                            + (" (floor)" if d["clamped"] else ""), f"{d['mean_ratio']:.3f}",
-                           f2(exact.psnr_unbiased) + (" (floor)" if exact.psnr_unbiased_clamped else ""),
+                           unbiased_cell(exact),
                            f"{size}"])
     figure, heat = "figures/e8_occlusion.png", "figures/e8_heat.png"
-    plot(per_scene, suite.out / figure)
-    plot_heat(per_scene, suite.out, suite.out / heat)
+    plot(per_scene, context.out / figure)
+    plot_heat(per_scene, context.out, context.out / heat)
     header = ["scene", "technique", "unbiased PSNR dB", "SSIM", "frame ms", "shadow ms", "precompute s",
               "not simulated"]
     table = []
     for name, (rows, _) in per_scene.items():
         for r in sorted(rows, key=lambda r: (family(r), frame_ms(r) or 0.0)):
-            table.append([name, label(r), f2(r.psnr_unbiased) + (" (floor)" if r.psnr_unbiased_clamped else ""),
+            table.append([name, label(r), unbiased_cell(r),
                           f3(r.ssim), f2(frame_ms(r)), f2(r.realtime_ms.get("shadow")), f2(precompute_s(r)),
                           ", ".join(r.unsimulated_effects) or "-"])
     split_header = ["scene", "light array", "array vs environment: unbiased PSNR dB (discretisation)",
@@ -220,19 +217,13 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
           + report.md_table(split_header, splits) + "\n\n" + note)
     blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E8"),
               report.figure(heat, "E8 heat maps"), report.table(split_header, splits), report.paragraph(note)]
-    return Section("E8 what shadows and bounces cost", blocks, md, [figure, heat])
+    return Section(TITLE, blocks, md, [figure, heat])
 
 
-def with_prt_seconds(suite, row: ResultRow) -> ResultRow:
+def with_prt_seconds(context: Context, row: ResultRow) -> ResultRow:
     """The transfer's compute seconds (from the PRT cache entry, also when the row read it from there)."""
     if row.techniques.get("diffuse") != "prt" or "prt_seconds" in row.extra:
         return row
-    from dataclasses import replace
-
-    import scenes
-    from realtime.techniques.prt.prt import transfer_objects
-    from realtime.techniques.prt.prt_transfer import cached_transfer
-
     scene = scenes.load(row.spec).with_overrides(row.overrides)
     rt = scene.realtime
     shadowed = rt.occlusion == "prt"
@@ -240,22 +231,13 @@ def with_prt_seconds(suite, row: ResultRow) -> ResultRow:
                               rt.prt.bounces if rt.interreflection == "prt" else 0, shadowed)
     row = replace(row, extra={**row.extra, "prt_seconds": info.get("compute_seconds", info.get("seconds")),
                               "prt_vertices": info.get("vertices"), "prt_rays_traced": info.get("rays_traced")})
-    suite.done[row.id] = row
-    suite.store.rewrite(list(suite.done.values()))
+    context.replace_row(row)
     return row
 
 
-def f2(x) -> str:
-    return "-" if x is None else f"{x:.2f}"
-
-
-def f3(x) -> str:
-    return "-" if x is None else f"{x:.3f}"
-
-
 def best(rows: list[ResultRow], fam_prefix: str) -> ResultRow | None:
-    ok = [r for r in rows if r.psnr_unbiased is not None and family(r).startswith(fam_prefix)]
-    return max(ok, key=lambda r: r.psnr_unbiased) if ok else None
+    """The best row (unbiased PSNR) of the families starting with `fam_prefix`."""
+    return report.best_row(rows, lambda r: family(r).startswith(fam_prefix))
 
 
 def summarize(per_scene: dict, splits: list[list[str]]) -> list[str]:
@@ -307,37 +289,24 @@ def seed_claims(per_scene: dict, splits: list[list[str]]) -> list[str]:
 
 
 def plot(per_scene: dict, path) -> None:
-    from experiments.publish import plots
-
+    """Unbiased PSNR against frame ms per scene, one marker per technique family, the spp ladder."""
     plt = plots.pyplot()
     n = len(per_scene)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
     for ax, (name, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=True):
-        pts = [r for r in rows if r.psnr_unbiased is not None and frame_ms(r)]
-        markers = "osD^v<>pP*Xh"
-        for k, fam in enumerate(sorted({family(r) for r in pts})):
-            sel = [r for r in pts if family(r) == fam]
-            ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=18, marker=markers[k % 12],
-                       label=fam)
+        plots.scatter_families(ax, rows, family, markers="osD^v<>pP*Xh", size=18)
         plots.finish_accuracy_time_axes(ax, curve, name, legend_size=5.5)
     plots.save(fig, path)
 
 
 def plot_heat(per_scene: dict, root, path) -> None:
     """Where each technique errs: the |realtime - reference| maps of the paper and of each family's best."""
-    from experiments.publish import plots
-
-    plt = plots.pyplot()
     columns = (("paper", "paper"), ("lights", "light array (best)"), ("PRT", "PRT (best)"))
-    fig, axes = plt.subplots(len(per_scene), len(columns), figsize=(3.3 * len(columns), 3.1 * len(per_scene)),
-                             squeeze=False)
-    for i, (name, (rows, _)) in enumerate(per_scene.items()):
-        for j, (prefix, title) in enumerate(columns):
-            ax = axes[i, j]
-            ax.axis("off")
+    cells = []
+    for name, (rows, _) in per_scene.items():
+        line = []
+        for prefix, title in columns:
             r = best(rows, prefix)
-            if r is None or "error" not in r.images:
-                continue
-            ax.imshow(plt.imread(root / r.images["error"]))
-            ax.set_title(f"{name}: {title}\n{label(r)}, {r.psnr_unbiased:.1f} dB", fontsize=7)
-    plots.save(fig, path)
+            line.append((r, "" if r is None else f"{name}: {title}\n{label(r)}, {r.psnr_unbiased:.1f} dB"))
+        cells.append(line)
+    plots.error_grid(cells, root, path)

@@ -1,4 +1,4 @@
-"""E9 of the paper suite: environment parameterizations at equal texel budgets (issue 13).
+"""E9 of the paper suite: environment parameterizations at equal texel budgets.
 
 The paper stores the environment as a cube map; a dual paraboloid (Heidrich & Seidel 1998, two maps,
 view independent) or a sphere map (OpenGL's GL_SPHERE_MAP, one map made for a capture view) is what a
@@ -20,20 +20,28 @@ against per-pixel reflection vectors on a coarse sphere and on the teapot.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
+from experiments.measure import metrics
 from experiments.measure.results import ResultRow
-from experiments.publish.report import Section
+from experiments.paper.context import Context
+from experiments.publish import plots
+from experiments.publish.report import Section, bullets, f2, figure, md_table, paragraph, table, unbiased_cell
+from groundtruth.exact import raycast
+from scenes.environment import cubemap, discmap, paraboloid, spheremap
+from scenes.environment.directions import normalize, rotation_y
+
+NUMBER = 9
+TITLE = "E9 environment parameterizations at equal texel budgets"
 
 PARAMS = ("cube", "dual_paraboloid", "sphere_map")
 LABELS = {"cube": "cube", "dual_paraboloid": "dual paraboloid", "sphere_map": "sphere map"}
 
 
 @dataclass(frozen=True)
-class E9Settings:
+class Settings:
     budgets: tuple[int, ...]  # cube face sizes s (6 s^2 texels)
     angles: tuple[float, ...]  # sphere map: capture view turned from the render view about +Y (degrees)
     angle_budget: int
@@ -43,19 +51,15 @@ class E9Settings:
     coarse_resolution: int  # latitude bands of the coarse builtin sphere
 
 
-QUICK = E9Settings(budgets=(16, 64, 256), angles=(0.0, 45.0, 90.0, 135.0, 180.0), angle_budget=64,
+QUICK = Settings(budgets=(16, 64, 256), angles=(0.0, 45.0, 90.0, 135.0, 180.0), angle_budget=64,
                    heat_budget=16, vertex_params=("cube",), vertex_budget=64, coarse_resolution=12)
-FULL = E9Settings(budgets=(16, 32, 64, 128, 256), angles=tuple(float(a) for a in np.arange(0.0, 180.1, 22.5)),
+FULL = Settings(budgets=(16, 32, 64, 128, 256), angles=tuple(float(a) for a in np.arange(0.0, 180.1, 22.5)),
                   angle_budget=64, heat_budget=16, vertex_params=PARAMS, vertex_budget=64, coarse_resolution=12)
 
 MIRROR = ("mirror sphere (N = 1e4)", "builtin:sphere-phong", {"objects.*.material.exponent": 1e4})
 GLOSSY = ("sphere-phong (N = 100)", "builtin:sphere-phong", {"objects.*.material.exponent": 100.0})
 DIFFUSE = ("sphere-diffuse", "builtin:sphere-diffuse", {})
 SCENES = (MIRROR, GLOSSY, DIFFUSE)
-
-
-def settings(quick: bool) -> E9Settings:
-    return QUICK if quick else FULL
 
 
 def budget_ov(param: str, face: int, glossy: bool) -> dict:
@@ -67,13 +71,11 @@ def budget_ov(param: str, face: int, glossy: bool) -> dict:
 
 def capture_direction(angle_deg: float) -> list[float]:
     """The builtin spheres' view direction (0, 0, -1) turned by `angle_deg` about +Y."""
-    from scenes.environment.directions import rotation_y
-
     d = rotation_y(angle_deg) @ np.array([0.0, 0.0, -1.0])
     return [round(float(x), 12) + 0.0 for x in d]
 
 
-def vertex_scenes(s: E9Settings) -> list[tuple[str, str, dict]]:
+def vertex_scenes(s: Settings) -> list[tuple[str, str, dict]]:
     coarse = {"objects.*.resolution": s.coarse_resolution}
     return [(f"coarse sphere ({s.coarse_resolution} bands), N = 1e4", "builtin:sphere-phong",
              {"objects.*.material.exponent": 1e4, **coarse}),
@@ -84,8 +86,9 @@ def vertex_scenes(s: E9Settings) -> list[tuple[str, str, dict]]:
             ("teapot-blend", "builtin:teapot-blend", {})]
 
 
-def count_steps(quick: bool) -> int:
-    s = settings(quick)
+def count_steps(settings: Settings) -> int:
+    """Progress steps of `run`: one per row, one for the heat maps."""
+    s = settings
     rows = (len(SCENES) * len(s.budgets) * len(PARAMS) + 2 * len(s.angles)
             + len(vertex_scenes(s)) * len(s.vertex_params) * 2)
     return rows + 1  # + the heat maps
@@ -98,9 +101,6 @@ def sampling_rates(face: int) -> list[dict]:
     """Per parameterization at the budget of cube faces `face`: texels, max / min texel solid angle
     (texels wholly inside the map) with its analytic limit, and the largest stretch (ratio of the
     singular values of d direction / d position) over those texels' centres."""
-    from scenes.environment import cubemap, discmap, paraboloid, spheremap
-    from scenes.environment.directions import normalize
-
     out = []
     w = cubemap.texel_solid_angles(face)
     c = cubemap.face_coords(face)
@@ -122,47 +122,43 @@ def sampling_rates(face: int) -> list[dict]:
 # ----------------------------------------------------------------------------- the experiment
 
 
-def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
-    """Render E9's rows through `suite.row` (resumable) and build its section."""
-    from experiments.publish import plots
-
-    s = settings(quick)
+def run(context: Context, settings: Settings) -> Section:
+    """E9's rows through `context.row` (resumable) and its section."""
+    s = settings
     glossy = {MIRROR[0]: True, GLOSSY[0]: True, DIFFUSE[0]: False}
     budget_rows: dict[tuple[str, int, str], ResultRow] = {}
     for label, spec, ov in SCENES:
         for face in s.budgets:
             for p in PARAMS:
-                budget_rows[(label, face, p)] = suite.row(spec, {**ov, **budget_ov(p, face, glossy[label])}, "E9")
+                budget_rows[(label, face, p)] = context.row(spec, {**ov, **budget_ov(p, face, glossy[label])}, "E9")
     angle_rows: dict[tuple[str, float], ResultRow] = {}
     for label, spec, ov in (MIRROR, GLOSSY):
         for a in s.angles:
-            angle_rows[(label, a)] = suite.row(spec, {**ov, **budget_ov("sphere_map", s.angle_budget, True),
+            angle_rows[(label, a)] = context.row(spec, {**ov, **budget_ov("sphere_map", s.angle_budget, True),
                                                       "realtime.sphere_map.capture": capture_direction(a)}, "E9")
     vertex_rows: dict[tuple[str, str, str], ResultRow] = {}
     for label, spec, ov in vertex_scenes(s):
         for p in s.vertex_params:
             for refl in ("per_pixel", "per_vertex"):
-                vertex_rows[(label, p, refl)] = suite.row(spec, {**ov, **budget_ov(p, s.vertex_budget, True),
+                vertex_rows[(label, p, refl)] = context.row(spec, {**ov, **budget_ov(p, s.vertex_budget, True),
                                                                  "realtime.reflection": refl}, "E9")
     rates = {face: sampling_rates(face) for face in s.budgets}
-    heat = heat_maps(suite, s, budget_rows, angle_rows)
-    progress()
+    heat = heat_maps(context, s, budget_rows, angle_rows)
+    context.progress()
 
     figs = {"psnr": "figures/e9_budgets.png", "rates": "figures/e9_sampling.png", "heat": "figures/e9_heat.png",
             "angle": "figures/e9_capture_angle.png"}
-    plot_budgets(budget_rows, s, suite.out / figs["psnr"], plots)
-    plot_rates(rates, suite.out / figs["rates"], plots)
-    plot_heat(heat, s, suite.out / figs["heat"], plots)
-    plot_angles(angle_rows, budget_rows, s, suite.out / figs["angle"], plots)
-
-    from experiments.publish.report import bullets, figure, md_table, paragraph, table
+    plot_budgets(budget_rows, s, context.out / figs["psnr"])
+    plot_rates(rates, context.out / figs["rates"])
+    plot_heat(heat, s, context.out / figs["heat"])
+    plot_angles(angle_rows, budget_rows, s, context.out / figs["angle"])
 
     t1_head = ["scene", "budget (cube face)", "parameterization", "map side", "texels", "PSNR dB",
                "unbiased PSNR dB", "filter ms", "draw ms", "frame ms"]
     t1 = []
     for (label, face, p), r in budget_rows.items():
         side, texels = store_size(p, face)
-        t1.append([label, face, LABELS[p], side, texels, f2(r.psnr), unbiased(r), f2(r.realtime_ms.get("filter")),
+        t1.append([label, face, LABELS[p], side, texels, f2(r.psnr), unbiased_cell(r), f2(r.realtime_ms.get("filter")),
                    f2(r.realtime_ms.get("draw")), f2(r.realtime_ms.get("total"))])
     t2_head = ["budget (cube face)", "parameterization", "side", "texels", "max/min texel solid angle",
                "analytic limit", "largest stretch"]
@@ -173,7 +169,7 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
     t3 = []
     for (label, a), r in angle_rows.items():
         cube = budget_rows.get((label, s.angle_budget, "cube"))
-        t3.append([label, f"{a:g}", f2(r.psnr), unbiased(r), f2(cube.psnr) if cube else "-",
+        t3.append([label, f"{a:g}", f2(r.psnr), unbiased_cell(r), f2(cube.psnr) if cube else "-",
                    f2(r.realtime_ms.get("total"))])
     t4_head = ["scene", "parameterization", "per-pixel PSNR dB", "per-vertex PSNR dB", "per-vertex - per-pixel dB",
                "per-pixel frame ms", "per-vertex frame ms", "unsimulated effects"]
@@ -201,25 +197,15 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
     blocks = [bullets(findings), table(t1_head, t1), figure(figs["psnr"], "E9 budgets"), table(t2_head, t2),
               figure(figs["rates"], "E9 sampling rates"), figure(figs["heat"], "E9 heat maps"), table(t3_head, t3),
               figure(figs["angle"], "E9 capture angle"), table(t4_head, t4), paragraph(note)]
-    return Section("E9 environment parameterizations at equal texel budgets", blocks, md, list(figs.values()))
+    return Section(TITLE, blocks, md, list(figs.values()))
 
 
 def store_size(param: str, face: int) -> tuple[int, int]:
-    from scenes.environment import paraboloid, spheremap
-
     if param == "cube":
         return face, 6 * face * face
     mod = paraboloid if param == "dual_paraboloid" else spheremap
     m = mod.map_size(face)
     return m, mod.texel_count(m)
-
-
-def f2(x) -> str:
-    return "-" if x is None else f"{x:.2f}"
-
-
-def unbiased(r: ResultRow) -> str:
-    return f2(r.psnr_unbiased) + (" (floor)" if r.psnr_unbiased_clamped else "")
 
 
 # ----------------------------------------------------------------------------- heat maps
@@ -242,13 +228,9 @@ class Heat:
     shown: bool = True
 
 
-def heat_maps(suite, s: E9Settings, budget_rows: dict, angle_rows: dict) -> dict[str, Heat]:
+def heat_maps(context: Context, s: Settings, budget_rows: dict, angle_rows: dict) -> dict[str, Heat]:
     """The mirror sphere at the heat-map budget (dual paraboloid and sphere map compared with the cube),
     and the sphere map captured from behind (compared with the one made for the render view)."""
-    import groundtruth
-    from experiments.measure import metrics
-    from groundtruth.exact import raycast
-
     panels = [(LABELS[p], budget_rows[(MIRROR[0], s.heat_budget, p)], None if p == "cube" else LABELS["cube"], True)
               for p in PARAMS if (MIRROR[0], s.heat_budget, p) in budget_rows]
     front, back = angle_rows.get((MIRROR[0], min(s.angles))), angle_rows.get((MIRROR[0], max(s.angles)))
@@ -258,8 +240,8 @@ def heat_maps(suite, s: E9Settings, budget_rows: dict, angle_rows: dict) -> dict
         panels.append((f"sphere map captured {max(s.angles):g} deg away (s = {s.angle_budget})", back, same, True))
     out = {}
     for title, row, baseline, shown in panels:
-        sc, test = suite.image_of(row)
-        ref = groundtruth.render(sc)  # cached with the row
+        sc, test = context.image_of(row)
+        ref = context.reference_of(sc)  # cached with the row
         mask = metrics.common_mask(test.mask, ref.mask)
         err = np.abs(metrics.display(sc, test.rgb) - metrics.display(sc, ref.rgb)).mean(-1)
         hits = raycast.cast(sc, 1)
@@ -279,7 +261,7 @@ def heat_maps(suite, s: E9Settings, budget_rows: dict, angle_rows: dict) -> dict
 # ----------------------------------------------------------------------------- figures
 
 
-def plot_budgets(rows: dict, s: E9Settings, path, plots) -> None:
+def plot_budgets(rows: dict, s: Settings, path) -> None:
     plt = plots.pyplot()
     fig, axes = plt.subplots(1, len(SCENES), figsize=(4.4 * len(SCENES), 3.6), squeeze=False)
     for ax, (label, _, _) in zip(axes[0], SCENES, strict=True):
@@ -298,7 +280,7 @@ def plot_budgets(rows: dict, s: E9Settings, path, plots) -> None:
     plots.save(fig, path)
 
 
-def plot_rates(rates: dict, path, plots) -> None:
+def plot_rates(rates: dict, path) -> None:
     plt = plots.pyplot()
     fig, ax = plt.subplots(1, 2, figsize=(9.6, 3.6))
     faces = sorted(rates)
@@ -318,7 +300,7 @@ def plot_rates(rates: dict, path, plots) -> None:
     plots.save(fig, path)
 
 
-def plot_heat(heat: dict[str, Heat], s: E9Settings, path, plots) -> None:
+def plot_heat(heat: dict[str, Heat], s: Settings, path) -> None:
     shown = [h for h in heat.values() if h.shown]
     if not shown:
         return
@@ -352,7 +334,7 @@ def plot_heat(heat: dict[str, Heat], s: E9Settings, path, plots) -> None:
     plt.close(fig)
 
 
-def plot_angles(angle_rows: dict, budget_rows: dict, s: E9Settings, path, plots) -> None:
+def plot_angles(angle_rows: dict, budget_rows: dict, s: Settings, path) -> None:
     plt = plots.pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 3.8))
     for label, _, _ in (MIRROR, GLOSSY):
@@ -372,7 +354,7 @@ def plot_angles(angle_rows: dict, budget_rows: dict, s: E9Settings, path, plots)
 # ----------------------------------------------------------------------------- findings
 
 
-def summarize(budget_rows, angle_rows, vertex_rows, rates, heat, s: E9Settings) -> list[str]:
+def summarize(budget_rows, angle_rows, vertex_rows, rates, heat, s: Settings) -> list[str]:
     out = []
     for label, _, _ in SCENES:
         parts = []

@@ -1,4 +1,4 @@
-"""E10 of the paper suite: what interreflection costs in real time, by cascaded voxel cone tracing (issue 14).
+"""E10 of the paper suite: what interreflection costs in real time, by cascaded voxel cone tracing.
 
 On cornell-open, bowl-diffuse and torus-phong, against the same path-traced references, `psnr_unbiased`
 against the frame's milliseconds for
@@ -17,30 +17,44 @@ just inside a one-voxel wall of a closed box over the irradiance just outside it
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
+import realtime
+import scenes
+from experiments.measure import convergence
 from experiments.measure.results import ResultRow
-from experiments.publish.report import Section
+from experiments.paper.context import Context
+from experiments.publish import plots, report
+from experiments.publish.plots import frame_ms
+from experiments.publish.report import Section, f2, f3, f4, unbiased_cell
+from groundtruth.pathtracer import reference
+from realtime.engine.context import get_context
+from realtime.engine.environment_maps import environment_store
+from realtime.techniques.vct import vct, vct_math
+from realtime.techniques.vct.vct import VoxelScene
+
+NUMBER = 10
+TITLE = "E10 what interreflection costs (voxel cone tracing)"
 
 SCENES = (("cornell-open", "builtin:cornell-open"), ("bowl-diffuse", "builtin:bowl-diffuse"),
           ("torus-phong", "builtin:torus-phong"))
 
 
 @dataclass(frozen=True)
-class E10Settings:
+class Settings:
     grid: tuple[tuple[int, int, int], ...]  # (resolution, cascades, diffuse cones)
     frames: int
     depths: tuple[int, ...]  # reference max_depth values for the energy split (full depth is the row's own)
 
 
-QUICK = E10Settings(grid=((32, 1, 6), (64, 1, 6), (32, 2, 6), (64, 2, 6), (64, 2, 4), (64, 2, 9)), frames=1,
+QUICK = Settings(grid=((32, 1, 6), (64, 1, 6), (32, 2, 6), (64, 2, 6), (64, 2, 4), (64, 2, 9)), frames=1,
                     depths=(2, 3))
 # the subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 x 3 cascades takes
 # about 10 s a frame on llvmpipe): every resolution x cascades at the seed's 6 cones, and 4 and 9 cones at 64^3 x 2
-FULL = E10Settings(grid=tuple((r, c, 6) for r in (32, 64, 128) for c in (1, 2, 3)) + ((64, 2, 4), (64, 2, 9)),
+FULL = Settings(grid=tuple((r, c, 6) for r in (32, 64, 128) for c in (1, 2, 3)) + ((64, 2, 4), (64, 2, 9)),
                    frames=3, depths=(2, 3))
 
 
@@ -52,17 +66,18 @@ def vct_ov(resolution: int, cascades: int, cones: int, interreflection: bool) ->
     return ov
 
 
-def configs(s: E10Settings) -> list[dict]:
+def configs(s: Settings) -> list[dict]:
     return [{}] + [vct_ov(r, c, k, inter) for r, c, k in s.grid for inter in (False, True)]
 
 
-def count_steps(quick: bool) -> int:
-    s = QUICK if quick else FULL
+def count_steps(settings: Settings) -> int:
+    """Progress steps of `run`: per scene its spp ladder, one per row and the energy split; the leak."""
+    s = settings
     return len(SCENES) * (len(configs(s)) + 2) + 1  # per scene: the curve, the rows, the energy split; the leak
 
 
-def frame_ms(r: ResultRow) -> float | None:
-    return r.realtime_ms.get("total")
+#: the three configurations of every scene, in the order of the figures
+MODES = ("direct (paper)", "occlusion", "occlusion + interreflection")
 
 
 def mode(r: ResultRow) -> str:
@@ -83,9 +98,6 @@ def setting(r: ResultRow) -> tuple[int, int, int] | None:
 
 def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
     """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent)."""
-    import scenes
-    from realtime.techniques.vct import vct, vct_math
-
     lo, hi = vct.scene_bounds(scenes.load(spec).objects)
     g = vct_math.cascades_for(lo, hi, resolution, cascades)
     return g.bytes_per_cascade(vct.BYTES_PER_VOXEL) * cascades, g.single_texture_bytes(vct.BYTES_PER_VOXEL)
@@ -95,16 +107,10 @@ def mib(b: float) -> str:
     return f"{b / 2**20:.1f}"
 
 
-def energy_split(suite, spec: str, best: dict, depths: tuple[int, ...]) -> dict:
+def energy_split(context: Context, spec: str, best: dict, depths: tuple[int, ...]) -> dict:
     """Linear radiance means over the pixels covered in every image: the real-time occlusion-only and
     occlusion + interreflection images of the best setting, the path tracer at each max_depth and full."""
-    import warnings
-
-    import realtime
-    import scenes
-    from groundtruth.pathtracer import reference
-
-    base = {**suite.base(), "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
+    base = {**context.base(), "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
     scene = scenes.load(spec).with_overrides(base)
     occ_ov = {k: v for k, v in best.items() if k != "realtime.interreflection"}
     with warnings.catch_warnings():
@@ -138,11 +144,6 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1) -> list[dict]:
     """The thin-wall scene's leak: the irradiance the cones find (environment x visibility + gathered) on
     the ground inside the closed box (walls of zero thickness: one voxel once voxelised; exactly 0 in the
     path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe)."""
-    import scenes
-    from realtime.engine.context import get_context
-    from realtime.engine.environment_maps import environment_store
-    from realtime.techniques.vct.vct import VoxelScene
-
     ctx = get_context()
     scene = scenes.load("builtin:thin-wall")
     xs = np.linspace(-0.3, 0.3, 4)
@@ -173,31 +174,27 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1) -> list[dict]:
     return out
 
 
-def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
-    """Render E10's rows through `suite.row` (resumable) and build its section."""
-    import scenes
-    from experiments.measure import convergence
-    from experiments.publish import report
-
-    s = QUICK if quick else FULL
+def run(context: Context, settings: Settings) -> Section:
+    """E10's rows through `context.row` (resumable) and its section."""
+    s = settings
     timing = {"realtime.timing_frames": s.frames, "realtime.warmup_frames": 1}
     per_scene: dict[str, tuple[list[ResultRow], list]] = {}
     energy: dict[str, dict] = {}
     for name, spec in SCENES:
-        scene = scenes.load(spec).with_overrides(suite.base())
-        curve = convergence.curve(scene, max_spp=suite.s.spp)
-        progress()
-        rows = [suite.row(spec, {**timing, **c}, "E10", curve=curve) for c in configs(s)]
+        scene = scenes.load(spec).with_overrides(context.base())
+        curve = convergence.curve(scene, max_spp=context.common.spp)
+        context.progress()
+        rows = [context.row(spec, {**timing, **c}, "E10", curve=curve) for c in configs(s)]
         per_scene[name] = (rows, curve)
         b = best(rows, "occlusion + interreflection")
-        energy[name] = energy_split(suite, spec, b.overrides if b else vct_ov(64, 2, 6, True), s.depths) | {
+        energy[name] = energy_split(context, spec, b.overrides if b else vct_ov(64, 2, 6, True), s.depths) | {
             "setting": setting(b) if b else None}
-        progress()
+        context.progress()
     leak = thin_wall_leak()
-    progress()
+    context.progress()
     figure, heat = "figures/e10_vct.png", "figures/e10_heat.png"
-    plot(per_scene, suite.out / figure)
-    plot_heat(per_scene, suite.out, suite.out / heat)
+    plot(per_scene, context.out / figure)
+    plot_heat(per_scene, context.out, context.out / heat)
     header = ["scene", "mode", "resolution", "cascades", "cones", "unbiased PSNR dB", "frame ms", "voxelize ms",
               "mip ms", "trace ms", "voxel MiB", "single 3D texture MiB"]
     table = []
@@ -211,7 +208,7 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
             draw = r.realtime_ms.get("draw")
             trace = None if (st is None or draw is None or d_draw is None) else draw - d_draw
             table.append([name, mode(r), *(map(str, st) if st else ("-", "-", "-")),
-                          f2(r.psnr_unbiased) + (" (floor)" if r.psnr_unbiased_clamped else ""), f2(frame_ms(r)),
+                          unbiased_cell(r), f2(frame_ms(r)),
                           f2(r.realtime_ms.get("voxelize")), f2(r.realtime_ms.get("mip")), f2(trace),
                           mib(mem[0]) if mem else "-", mib(mem[1]) if mem else "-"])
     e_header = ["scene", "best setting", "direct", "VCT occlusion", "VCT occl. + interr.", "path depth 2",
@@ -238,31 +235,19 @@ def run(suite, quick: bool, progress: Callable[[], None]) -> Section:
     blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E10"),
               report.figure(heat, "E10 heat maps"), report.table(e_header, e_rows), report.table(l_header, l_rows),
               report.paragraph(note)]
-    return Section("E10 what interreflection costs (voxel cone tracing)", blocks, md, [figure, heat])
-
-
-def f2(x) -> str:
-    return "-" if x is None else f"{x:.2f}"
-
-
-def f3(x) -> str:
-    return "-" if x is None else f"{x:.3f}"
-
-
-def f4(x) -> str:
-    return "-" if x is None else f"{x:.4f}"
+    return Section(TITLE, blocks, md, [figure, heat])
 
 
 def best(rows: list[ResultRow], which: str) -> ResultRow | None:
-    ok = [r for r in rows if r.psnr_unbiased is not None and mode(r) == which]
-    return max(ok, key=lambda r: r.psnr_unbiased) if ok else None
+    """The best row (unbiased PSNR) of mode `which`."""
+    return report.best_row(rows, lambda r: mode(r) == which)
 
 
 def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
     out = []
     for name, (rows, _) in per_scene.items():
         parts = []
-        for which in ("direct (paper)", "occlusion", "occlusion + interreflection"):
+        for which in MODES:
             b = best(rows, which)
             if b is not None:
                 st = setting(b)
@@ -281,38 +266,28 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
 
 
 def plot(per_scene: dict, path) -> None:
-    from experiments.publish import plots
-
+    """Unbiased PSNR against frame ms per scene, one marker per mode, each VCT point labelled with its
+    resolution/cascades/cones, the spp ladder."""
     plt = plots.pyplot()
     n = len(per_scene)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
     for ax, (name, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=True):
-        for k, which in enumerate(("direct (paper)", "occlusion", "occlusion + interreflection")):
-            sel = [r for r in rows if mode(r) == which and r.psnr_unbiased is not None and frame_ms(r)]
-            ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=22, marker="osD"[k], label=which)
-            for r in sel:
-                st = setting(r)
-                if st:
-                    ax.annotate(f"{st[0]}/{st[1]}/{st[2]}", (frame_ms(r), r.psnr_unbiased), fontsize=5)
+        pts = plots.scatter_families(ax, rows, mode, markers="osD", order=MODES)
+        for r in pts:
+            st = setting(r)
+            if st:
+                ax.annotate(f"{st[0]}/{st[1]}/{st[2]}", (frame_ms(r), r.psnr_unbiased), fontsize=5)
         plots.finish_accuracy_time_axes(ax, curve, name)
     plots.save(fig, path)
 
 
 def plot_heat(per_scene: dict, root, path) -> None:
     """Where VCT errs: the |realtime - reference| maps of direct only and each mode's best setting."""
-    from experiments.publish import plots
-
-    plt = plots.pyplot()
-    columns = ("direct (paper)", "occlusion", "occlusion + interreflection")
-    fig, axes = plt.subplots(len(per_scene), len(columns), figsize=(3.3 * len(columns), 3.1 * len(per_scene)),
-                             squeeze=False)
-    for i, (name, (rows, _)) in enumerate(per_scene.items()):
-        for j, which in enumerate(columns):
-            ax = axes[i, j]
-            ax.axis("off")
+    cells = []
+    for name, (rows, _) in per_scene.items():
+        line = []
+        for which in MODES:
             r = best(rows, which)
-            if r is None or "error" not in r.images:
-                continue
-            ax.imshow(plt.imread(root / r.images["error"]))
-            ax.set_title(f"{name}: {which}\n{r.psnr_unbiased:.1f} dB", fontsize=7)
-    plots.save(fig, path)
+            line.append((r, "" if r is None else f"{name}: {which}\n{r.psnr_unbiased:.1f} dB"))
+        cells.append(line)
+    plots.error_grid(cells, root, path)

@@ -4,16 +4,19 @@ time, cost against size."""
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import numpy as np
 
+from experiments.measure.convergence import time_model
 from experiments.measure.results import ResultRow
+from experiments.publish.text import one_line
 
 
 def pyplot():
     """matplotlib.pyplot on the headless Agg backend."""
-    import matplotlib
+    import matplotlib  # deferred: matplotlib is heavy and only figures need it
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
@@ -24,8 +27,6 @@ def pyplot():
 def label_text(text: object, limit: int = 60) -> str:
     """User text (a scene name) as a plot label: control characters shown as escapes and `$` escaped,
     so a name is never parsed as mathtext (an unknown command there stops the whole figure)."""
-    from experiments.publish.text import one_line
-
     return one_line(text, limit).replace("$", r"\$")
 
 
@@ -48,12 +49,45 @@ def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
     return np.asarray(front, dtype=int)
 
 
+def frame_ms(r: ResultRow) -> float | None:
+    """A row's frame time: every per-frame part plus the shading pass (its `total` ms; None if not timed)."""
+    return r.realtime_ms.get("total")
+
+
+def scatter_families(ax, rows: list[ResultRow], family: Callable[[ResultRow], str], markers: str = "o",
+                     size: float = 22, order: Sequence[str] = ()) -> list[ResultRow]:
+    """Unbiased PSNR against frame ms, one scatter (and legend entry) per family: the families of `order`
+    in that order (each, even without points), else those of the rows sorted by name; marker k of
+    `markers` for the k-th family (cycling). Returns the rows drawn (both values known)."""
+    pts = [r for r in rows if r.psnr_unbiased is not None and frame_ms(r)]
+    for k, fam in enumerate(order or sorted({family(r) for r in pts})):
+        sel = [r for r in pts if family(r) == fam]
+        ax.scatter([frame_ms(r) for r in sel], [r.psnr_unbiased for r in sel], s=size,
+                   marker=markers[k % len(markers)], label=fam)
+    return pts
+
+
+def error_grid(cells: Sequence[Sequence[tuple[ResultRow | None, str]]], root: Path, path: Path) -> None:
+    """A grid of error heat maps: cells[i][j] = (row, title); the row's |realtime - reference| image (its
+    `error` image, relative to `root`) with the title above it, an empty panel for a missing row or image."""
+    plt = pyplot()
+    n_rows, n_cols = len(cells), max(len(c) for c in cells)
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(3.3 * n_cols, 3.1 * n_rows), squeeze=False)
+    for i, line in enumerate(cells):
+        for j, (r, title) in enumerate(line):
+            ax = axes[i, j]
+            ax.axis("off")
+            if r is None or "error" not in r.images:
+                continue
+            ax.imshow(plt.imread(Path(root) / r.images["error"]))
+            ax.set_title(title, fontsize=7)
+    save(fig, path)
+
+
 def finish_accuracy_time_axes(ax, curve, title: str, legend_size: float = 6) -> None:
     """The path tracer's spp ladder (experiments.measure.convergence.curve; seconds from its per-spp time model)
     on an unbiased-PSNR-against-ms axes, and the axes' common dress: log time, labels, grid, legend.
     E7, E8 and E10 draw their techniques first and finish with this."""
-    from experiments.measure.convergence import time_model
-
     ladder = [(x.spp, x.seconds, x.psnr_db) for x in curve if x.psnr_db is not None]
     if ladder:
         model = time_model(curve)
@@ -114,7 +148,7 @@ def accuracy_vs_time(rows: list[ResultRow], path: Path) -> bool:
     plt = pyplot()
     t = np.array([r.realtime_ms["total"] for r in pts])
     p = np.array([r.psnr for r in pts])
-    from matplotlib.ticker import ScalarFormatter
+    from matplotlib.ticker import ScalarFormatter  # deferred: matplotlib, as in pyplot()
 
     fig, ax = plt.subplots(figsize=(6.4, 4.4))
     for name in sorted({r.scene for r in pts}):  # fronts per scene: different scenes do not compete

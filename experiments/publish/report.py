@@ -6,7 +6,7 @@ PNG files under DIR/figures): PSNR and SSIM against LOD bias per face size, PSNR
 time with the Pareto front, filter and draw time against face size. Extra sections (the paper
 suite's experiments) come before them.
 
-Escaping (issue 11): every value reaches the page through the template with autoescape on; a
+Escaping: every value reaches the page through the template with autoescape on; a
 section is data (`Section.blocks`: tables, paragraphs, lists, figures), never HTML. Image sources
 are local paths or inline PNGs only, and a Content-Security-Policy lets only the page's own sorting
 script run and nothing load from the network, so a hostile name shows as text and runs nothing.
@@ -22,9 +22,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from jinja2 import Environment, PackageLoader
+
 from experiments.measure.results import ResultRow, store_in
 from experiments.publish import outputs, plots
-from experiments.publish.text import md_cell, visible
+from experiments.publish.text import html_text, md_cell, visible
+from scenes import InputError
 
 #: the paper suite's sections, kept so that `iblcheck report` can rebuild its page
 SECTIONS = "experiments.json"
@@ -100,6 +103,32 @@ def fmt(value, spec: str) -> str:
     return "-" if value is None else format(value, spec)
 
 
+def f2(x: float | None) -> str:
+    """A table cell with two decimals; '-' for a value that was not measured (None)."""
+    return fmt(x, ".2f")
+
+
+def f3(x: float | None) -> str:
+    """A table cell with three decimals; '-' for None."""
+    return fmt(x, ".3f")
+
+
+def f4(x: float | None) -> str:
+    """A table cell with four decimals; '-' for None."""
+    return fmt(x, ".4f")
+
+
+def unbiased_cell(r: ResultRow) -> str:
+    """A row's unbiased PSNR as a cell, '(floor)' when clamped at what the reference can resolve."""
+    return f2(r.psnr_unbiased) + (" (floor)" if r.psnr_unbiased_clamped else "")
+
+
+def best_row(rows: list[ResultRow], keep) -> ResultRow | None:
+    """The row of highest unbiased PSNR among `rows` for which `keep(row)` is true; None if there is none."""
+    ok = [r for r in rows if r.psnr_unbiased is not None and keep(r)]
+    return max(ok, key=lambda r: r.psnr_unbiased) if ok else None
+
+
 def env_name(env: str) -> str:
     return env.split(":", 1)[1] if env.startswith("builtin:") else Path(env).name
 
@@ -155,8 +184,6 @@ def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] 
 
 def read_sections(path: Path) -> dict:
     """experiments.json of a paper report; an unreadable one is bad input naming the file."""
-    from scenes import InputError
-
     try:
         meta = json.loads(path.read_text(encoding="utf-8"))
         if not isinstance(meta, dict) or not isinstance(meta.get("sections"), list) \
@@ -174,10 +201,6 @@ SORT_SCRIPT = "report_sort.js"
 
 def render_page(**context) -> str:
     """The report page from report.html.j2, autoescaped, with its Content-Security-Policy."""
-    from jinja2 import Environment, PackageLoader
-
-    from experiments.publish.text import html_text
-
     env = Environment(loader=PackageLoader("experiments.publish", "templates"), autoescape=True, finalize=html_text)
     env.filters["local_src"] = local_src
     script = env.get_template(SORT_SCRIPT).render()  # exactly what `{% include %}` puts in the page

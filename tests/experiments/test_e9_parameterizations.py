@@ -1,4 +1,4 @@
-"""E9's pieces that need neither OpenGL nor Mitsuba (experiments/paper/e09_parameterizations.py, issue 13)."""
+"""E9's pieces that need neither OpenGL nor Mitsuba (experiments/paper/e09_parameterizations.py)."""
 
 from __future__ import annotations
 
@@ -50,4 +50,4 @@ def test_every_e9_configuration_is_a_valid_scene():
         assert "glossy" in sc.effects
     rows = (len(e9.SCENES) * len(s.budgets) * len(e9.PARAMS) + 2 * len(s.angles)
             + len(e9.vertex_scenes(s)) * len(s.vertex_params) * 2)
-    assert e9.count_steps(True) == rows + 1
+    assert e9.count_steps(e9.QUICK) == rows + 1

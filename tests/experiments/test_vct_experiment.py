@@ -26,7 +26,7 @@ def test_configs_are_direct_then_occlusion_and_interreflection_per_setting():
 def test_count_steps_matches_the_progress_calls():
     s = e10.QUICK
     # per scene: the convergence curve, one row per configuration, the energy split; then the leak
-    assert e10.count_steps(True) == len(e10.SCENES) * (1 + len(e10.configs(s)) + 1) + 1
+    assert e10.count_steps(e10.QUICK) == len(e10.SCENES) * (1 + len(e10.configs(s)) + 1) + 1
 
 
 def test_memory_cascades_against_one_texture():
