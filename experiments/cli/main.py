@@ -308,6 +308,16 @@ def main(argv: list[str] | None = None) -> int:
     return run_command(args, debug)
 
 
+def _interrupted_note(args: argparse.Namespace) -> str:
+    """What an interruption leaves behind, for the command that was interrupted."""
+    if args.func in (_cmd_sweep, _cmd_paper):
+        return (f"the rows finished so far are kept in {getattr(args, 'out', 'the output folder')}/results.jsonl; "
+                "rerun the same command to resume")
+    if args.func is _cmd_gate:
+        return "no verdict; every file is written whole or not at all; rerun the gate"
+    return "every file is written whole or not at all; rerun the same command"
+
+
 def run_command(args: argparse.Namespace, debug: bool = False) -> int:
     """Run a parsed command, mapping every way it can end to its exit code (see the module docstring)."""
     try:
@@ -322,7 +332,7 @@ def run_command(args: argparse.Namespace, debug: bool = False) -> int:
         _error("out of memory; use smaller images (camera.width, camera.height), maps or meshes")
         return EXIT_MISSING
     except KeyboardInterrupt:
-        _error("interrupted; rerun the same command to resume (finished rows are kept)")
+        _error(f"interrupted; {_interrupted_note(args)}")
         return EXIT_INTERRUPTED
     except OSError as exc:
         if exc.filename is None:

@@ -289,7 +289,7 @@ def page_problems(html: str) -> list[str]:
     hostile name smuggled in, a second script, a non-local source, a missing Content-Security-Policy."""
     allowed = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "section", "table", "thead",
                "tbody", "tr", "th", "td", "div", "figure", "figcaption", "img", "a", "details", "summary", "ul",
-               "li", "pre", "code", "script"}
+               "li", "pre", "code", "script", "span"}
     problems: list[str] = []
 
     class Scan(HTMLParser):

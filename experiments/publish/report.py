@@ -23,10 +23,11 @@ from pathlib import Path
 from typing import Any
 
 from jinja2 import Environment, PackageLoader
+from markupsafe import Markup
 
 from experiments.measure.results import ResultRow, store_in
 from experiments.publish import outputs, plots
-from experiments.publish.text import html_text, md_cell, visible
+from experiments.publish.text import html_text, md_cell, shorten, visible
 from scenes import InputError
 
 #: the paper suite's sections, kept so that `iblcheck report` can rebuild its page
@@ -199,10 +200,25 @@ def read_sections(path: Path) -> dict:
 SORT_SCRIPT = "report_sort.js"
 
 
+#: the most characters of a name shown in a table cell of the page; the full name is its tooltip
+CELL_LIMIT = 80
+
+
+def clip(value: object, limit: int = CELL_LIMIT) -> object:
+    """A table cell: short strings as they are; a longer one cut in the middle (text.shorten) with the
+    whole, escaped, in its `title` tooltip, so a 10,000-character scene name keeps the table usable."""
+    if not isinstance(value, str) or len(value) <= limit:
+        return value
+    full = html_text(value)
+    return Markup('<span title="{}">{}</span>').format(full, shorten(full, limit))
+
+
 def render_page(**context) -> str:
     """The report page from report.html.j2, autoescaped, with its Content-Security-Policy."""
-    env = Environment(loader=PackageLoader("experiments.publish", "templates"), autoescape=True, finalize=html_text)
+    env = Environment(loader=PackageLoader("experiments.publish", "templates"), autoescape=True,
+                      finalize=lambda v: v if isinstance(v, Markup) else html_text(v))  # clip's escaped cells
     env.filters["local_src"] = local_src
+    env.filters["clip"] = clip
     script = env.get_template(SORT_SCRIPT).render()  # exactly what `{% include %}` puts in the page
     digest = base64.b64encode(hashlib.sha256(script.encode()).digest()).decode()
     csp = (f"default-src 'none'; script-src 'sha256-{digest}'; style-src 'unsafe-inline'; "
