@@ -87,11 +87,35 @@ def load(key: str) -> tuple[np.ndarray, np.ndarray, dict] | None:
             meta_json, stored = str(z["meta"]), str(z["checksum"])
         if _checksum(rgb, mask, meta_json) != stored:
             raise ValueError("checksum mismatch")
-        return rgb, mask, json.loads(meta_json)
+        meta = json.loads(meta_json)
+        problem = entry_problem(key, rgb, mask, meta)
+        if problem:
+            raise ValueError(problem)
+        return rgb, mask, meta
     except Exception as exc:  # any unreadable entry (truncated zip, bad checksum, ...) is re-rendered
         warnings.warn(f"reference cache entry {path} is corrupt ({exc}); re-rendering it", CacheWarning,
                       stacklevel=2)
         return None
+
+
+def entry_problem(key: str, rgb: np.ndarray, mask: np.ndarray, meta: object) -> str | None:
+    """What is wrong with an entry's content (its checksum only proves it was written whole): the
+    image an (H, W, 3) float array of finite radiance, the mask one boolean per pixel, and the
+    metadata the record of this key with a positive spp and a finite, non-negative render time."""
+    if rgb.ndim != 3 or rgb.shape[2] != 3 or rgb.dtype.kind != "f":
+        return f"rgb holds {rgb.dtype} {rgb.shape}, not (H, W, 3) floats"
+    if not np.isfinite(rgb).all():
+        return "rgb holds NaN or Inf"
+    if mask.shape != rgb.shape[:2] or mask.dtype.kind not in "bu":
+        return f"mask holds {mask.dtype} {mask.shape} for a {rgb.shape[:2]} image"
+    if not isinstance(meta, dict) or meta.get("key") != key:
+        return "its metadata is not this key's"
+    spp, ms = meta.get("spp"), meta.get("render_ms")
+    if isinstance(spp, bool) or not isinstance(spp, int) or spp < 1:
+        return f"spp = {spp!r}: a positive integer is required"
+    if isinstance(ms, bool) or not isinstance(ms, (int, float)) or not np.isfinite(ms) or ms < 0:
+        return f"render_ms = {ms!r}: a finite time >= 0 is required"
+    return None
 
 
 def store(key: str, rgb: np.ndarray, mask: np.ndarray, meta: dict) -> bool:

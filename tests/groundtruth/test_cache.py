@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -113,3 +114,29 @@ def test_the_light_array_reference_is_keyed_by_its_placement_and_count(cache_dir
     assert groundtruth.render(scene.with_overrides({"realtime.lights.placement": "median_cut",
                                                     "realtime.lights.count": 16})).meta["cache"] == "miss"
     assert groundtruth.render(scene).meta["cache"] == "hit"
+
+
+@pytest.mark.parametrize("edit, says", [
+    (lambda rgb, mask, meta: (np.where(np.arange(rgb.size).reshape(rgb.shape) == 5, np.nan, rgb), mask, meta),
+     "NaN or Inf"),
+    (lambda rgb, mask, meta: (rgb, mask[:-1], meta), "mask holds"),
+    (lambda rgb, mask, meta: (rgb, mask, {**meta, "key": "another"}), "not this key's"),
+    (lambda rgb, mask, meta: (rgb, mask, {**meta, "spp": -1}), "spp = -1"),
+    (lambda rgb, mask, meta: (rgb, mask, {**meta, "render_ms": float("inf")}), "render_ms = inf"),
+])
+def test_an_entry_written_whole_with_meaningless_content_is_rerendered(cache_dir, edit, says):
+    """The checksum proves an entry was written whole, not that what it holds means anything: an entry
+    re-written with a valid checksum over NaN radiance, a mask of another size, another key's record,
+    a negative spp or an infinite time is refused by what it says and rendered again."""
+    scene = small("builtin:sphere-diffuse", size=24, spp=16)
+    first = groundtruth.render(scene)
+    (entry,) = entries(cache_dir)
+    rgb, mask, meta = cache.load(entry.stem)
+    rgb, mask, meta = edit(rgb, mask, meta)
+    meta_json = json.dumps(meta, sort_keys=True)
+    cache.write_npz(cache_dir, entry.stem, rgb=rgb, mask=mask, meta=np.array(meta_json),
+                    checksum=np.array(cache._checksum(rgb, mask, meta_json)))
+    with pytest.warns(cache.CacheWarning, match=says):
+        again = groundtruth.render(scene)
+    assert again.meta["cache"] == "corrupt"
+    np.testing.assert_array_equal(again.rgb, first.rgb)
