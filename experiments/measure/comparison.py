@@ -1,7 +1,11 @@
-"""Real-time image against a reference: the metrics of design.md section 7 and the timings.
+"""Real-time image against a reference: the metrics of docs/design.md section 7 and the timings.
 
-    compare(test, reference, scene, reference2=None) -> dict       # the keys of `iblcheck compare`
-    run(scene) -> Comparison                                          # renders both, then compares
+    compare(test, reference, scene, reference2=None) -> dict           # the keys of `iblcheck compare`
+    compare_renders(test, reference, scene, reference2=None) -> Comparison   # the dict and the Measurement
+    run(scene) -> Comparison                                              # renders both, then compares
+
+Every number comes from one `experiments.measure.pair.measure_pair` of the pair (the display
+transform, the masks, PSNR, psnr_unbiased, SSIM and FLIP with their maps, each once).
 
 All image metrics use the common mask (both coverage masks, eroded by 1 pixel) and both images
 tone-mapped with the scene's parameters. The noise floor needs a second, independent reference:
@@ -18,8 +22,7 @@ import numpy as np
 import groundtruth
 import realtime
 from experiments.measure.pair import Measurement, measure_pair
-from groundtruth.pathtracer.reference import render as render_reference
-from groundtruth.pathtracer.reference import second_seed
+from groundtruth.pathtracer import reference as pathtracer
 from scenes.model.render import Render
 
 #: a real-time score within this many dB of the noise floor is "at the noise floor"
@@ -30,7 +33,7 @@ def second_reference(reference: Render, scene) -> Render | None:
     """The other-seed render of a Mitsuba reference (cached); None for a noise-free reference."""
     if reference.meta.get("renderer") != "reference":
         return None
-    return render_reference(scene, spp=reference.meta["spp"], seed=second_seed(reference.meta["seed"]))
+    return pathtracer.render(scene, spp=reference.meta["spp"], seed=pathtracer.second_seed(reference.meta["seed"]))
 
 
 def compare(test: Render, reference: Render, scene, reference2: Render | None = None, *,

@@ -253,10 +253,12 @@ def quadrature_task(payload: dict) -> dict:
 
 
 def prt_settings(scene) -> tuple[int, int, int, bool] | None:
-    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes, as realtime/techniques/prt/prt.py
-    asks for
-    it (None: no PRT). Were the two to differ, the driver would compute the transfer again (a cache miss),
-    never use a wrong one: the cache key holds all four."""
+    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes (None: no PRT). Were these
+    to differ from what the PRT technique asks for, the driver would compute the transfer again (a cache
+    miss), never use a wrong one: the cache key holds all four."""
+    # SEAM (effective settings): this derives PRT's settings a second time, beside the PRT technique
+    # package, with its own default for `rays`. Replace the body with that package's single function for
+    # the effective settings (returning None without PRT); nothing else here reads rt.prt.
     rt = scene.realtime
     if rt.diffuse != "prt":
         return None

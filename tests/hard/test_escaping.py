@@ -1,4 +1,4 @@
-"""Issue 11, section 1: everything that reaches HTML, XML, Markdown or a terminal is escaped.
+"""Everything that reaches HTML, XML, Markdown or a terminal is escaped.
 
 Hostile names (experiments/paper/e06_hostile_cases.py: markup, script URLs, template syntax, mathtext, terminal escapes,
 control characters, bidirectional overrides) go into every field that carries text: the scene name, the

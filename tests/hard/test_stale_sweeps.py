@@ -1,4 +1,4 @@
-"""Issue 11, section 6: sweeps never serve stale or duplicate rows.
+"""Sweeps never serve stale or duplicate rows.
 
 Row ids are keyed by content (the resolved scene, the map's and meshes' bytes, the row and plugin versions),
 so editing the scene file, the map or a mesh computes new rows and drops the stale ones; plans are
