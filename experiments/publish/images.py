@@ -87,11 +87,12 @@ class MeasuredArrays:
 
 
 def save_measured(path: Path, measured: Measurement, test: Render) -> None:
-    """`path` (.npz, compressed, written atomically): the arrays of `MeasuredArrays`."""
+    """`path` (.npz, written atomically): the arrays of `MeasuredArrays` (uncompressed: zlib takes ~50 ms on
+    a 192 x 192 render and saves a fifth of its size)."""
     buf = io.BytesIO()
-    np.savez_compressed(buf, rgb=np.asarray(test.rgb, np.float32), coverage=np.asarray(test.mask, bool),
-                        meta=np.array(json.dumps(test.meta, default=str)), mask=measured.mask,
-                        error=np.asarray(measured.error_map, np.float32))
+    np.savez(buf, rgb=np.asarray(test.rgb, np.float32), coverage=np.asarray(test.mask, bool),
+             meta=np.array(json.dumps(test.meta, default=str)), mask=measured.mask,
+             error=np.asarray(measured.error_map, np.float32))
     write_bytes(path, buf.getvalue())
 
 
