@@ -2,11 +2,13 @@
 
     measure_pair(test, reference, scene, second_reference=None) -> Measurement
 
-`compare`, `sweep`, `gate` and the paper's experiments all measure through `measure_pair`, so that each
-of the expensive steps runs once per pair: the tone mapping of each image, FLIP (its map gives the
-mean and the row's FLIP picture), SSIM (its map gives the mean and the gate's noise estimates). The
-metrics themselves are the plain functions of experiments/measure/metrics.py; this module only
-decides which of them run on which images and keeps what they produced.
+`iblcheck compare`, the gate and every result row (a sweep's and the paper suite's) measure through
+`measure_pair`, so that each expensive step runs once per pair: the tone mapping of each image, FLIP
+(its map gives the mean and the row's FLIP picture), SSIM (its map gives the mean and the gate's noise
+estimates). The row keeps the images and maps its pictures and figures need
+(experiments/publish/images.py). The metrics themselves are the plain functions of
+experiments/measure/metrics.py; this module only decides which of them run on which images and keeps
+what they produced.
 """
 
 from __future__ import annotations
