@@ -1,4 +1,4 @@
-"""Image metrics on a common mask (design.md section 7), plain functions with explicit parameters.
+"""Image metrics on a common mask (docs/design.md section 7), plain functions with explicit parameters.
 
 Conventions:
 - Images are (H, W, 3). `psnr`, `ssim` and `flip` take display values (tone-mapped sRGB in
@@ -16,6 +16,8 @@ from functools import lru_cache
 from typing import NamedTuple
 
 import numpy as np
+from scipy.ndimage import binary_erosion
+from skimage.metrics import structural_similarity
 
 from scenes.model.tonemap import adaptation_luminance, tonemap
 
@@ -23,6 +25,8 @@ from scenes.model.tonemap import adaptation_luminance, tonemap
 PSNR_CAP = 100.0
 #: 10 log10(2): the difference of two independent renders has twice the variance of either
 TWO_RENDERS_DB = 10.0 * math.log10(2.0)
+#: the side of scikit-image's SSIM window (its default, `win_size=7`)
+SSIM_WINDOW = 7
 
 
 def display(scene, rgb: np.ndarray) -> np.ndarray:
@@ -42,8 +46,6 @@ def _adaptation(environment) -> float:
 
 def common_mask(mask_a: np.ndarray, mask_b: np.ndarray, erode: int = 1) -> np.ndarray:
     """mask_a AND mask_b, eroded by `erode` pixels (a 3x3 cross per step)."""
-    from scipy.ndimage import binary_erosion
-
     m = np.asarray(mask_a, bool) & np.asarray(mask_b, bool)
     return binary_erosion(m, iterations=erode, border_value=0) if erode > 0 and m.any() else m
 
@@ -58,33 +60,68 @@ def psnr(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, data_range: 
     return 10.0 * math.log10(data_range**2 / mse)
 
 
-def ssim(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, data_range: float = 1.0) -> float | None:
+class SSIMResult(NamedTuple):
+    """Result of `ssim(..., full=True)`: the mean, the map it averages and the pixels it averages over."""
+
+    value: float | None
+    map: np.ndarray | None
+    selection: np.ndarray | None
+
+
+def ssim_selection(mask: np.ndarray, win_size: int = SSIM_WINDOW) -> np.ndarray:
+    """`mask` without the border of (win_size - 1) / 2 pixels that scikit-image leaves out of its mean."""
+    h, w = mask.shape
+    pad = (win_size - 1) // 2
+    inner = np.zeros_like(mask, dtype=bool)
+    inner[pad:h - pad, pad:w - pad] = True
+    return np.asarray(mask, bool) & inner
+
+
+def ssim(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, data_range: float = 1.0,
+         *, full: bool = False) -> float | None | SSIMResult:
     """Mean SSIM (scikit-image, 7x7 window, `channel_axis=-1`) over the masked pixels.
 
-    The SSIM map is computed on the whole image and averaged over `mask` minus the 3-pixel border
-    scikit-image itself leaves out, so with an all-True mask it equals
-    `skimage.metrics.structural_similarity(test, reference, data_range=..., channel_axis=-1)`.
-    """
-    from skimage.metrics import structural_similarity
+    Parameters
+    ----------
+    test, reference : ndarray, shape (H, W, 3)
+        Display values (`display(scene, rgb)`), compared as float64.
+    mask : ndarray of bool, shape (H, W)
+        Pixels that count.
+    data_range : float, optional
+        The data range of the images (1 for display values).
+    full : bool, optional
+        Also return the SSIM map and the pixels averaged (as `skimage.metrics.structural_similarity`'s
+        `full=True` does).
 
+    Returns
+    -------
+    float or None
+        The mean of the channel-mean SSIM map over `mask` minus the 3-pixel border scikit-image itself
+        leaves out (`ssim_selection`), so that with an all-True mask it equals
+        `skimage.metrics.structural_similarity(test, reference, data_range=..., channel_axis=-1)`.
+        None when the mask is empty, the 7x7 window does not fit, or no masked pixel is inside the border.
+    SSIMResult
+        With `full`: ``(value, map, selection)``, where ``map`` is the (H, W) channel-mean SSIM map of the
+        whole image (None when the mask is empty or the window does not fit) and ``selection`` the pixels
+        ``value`` averages (``value == map[selection].mean()``).
+    """
+    none = SSIMResult(None, None, None) if full else None
     if not mask.any():
-        return None
+        return none
     h, w = mask.shape
-    if min(h, w) < 7:
-        return None  # the 7x7 window does not fit
+    if min(h, w) < SSIM_WINDOW:
+        return none  # the 7x7 window does not fit
     _, smap = structural_similarity(np.asarray(test, np.float64), np.asarray(reference, np.float64),
                                     data_range=data_range, channel_axis=-1, full=True)
-    inner = np.zeros_like(mask)
-    inner[3:h - 3, 3:w - 3] = True
-    sel = mask & inner
-    if not sel.any():
-        return None
-    return float(smap.mean(axis=-1)[sel].mean())
+    channel_mean = smap.mean(axis=-1)
+    sel = ssim_selection(mask)
+    value = float(channel_mean[sel].mean()) if sel.any() else None
+    return SSIMResult(value, channel_mean, sel) if full else value
 
 
 def flip_map(test: np.ndarray, reference: np.ndarray) -> np.ndarray:
     """LDR FLIP error map (H, W) in [0, 1] of display images (flip-evaluator, 67 pixels per degree)."""
-    import flip_evaluator
+    import flip_evaluator  # deferred: a compiled extension, loaded only when FLIP is computed
 
     ref = np.ascontiguousarray(np.clip(reference, 0, 1), dtype=np.float32)
     tst = np.ascontiguousarray(np.clip(test, 0, 1), dtype=np.float32)
@@ -113,7 +150,7 @@ def noise_floor_psnr(display_a: np.ndarray, display_b: np.ndarray, mask: np.ndar
     """The best PSNR any image can reach against a reference with this much noise.
 
     Two renders with different seeds differ by noise of twice the variance of either, so
-    PSNR(reference, truth) = PSNR(a, b) + 10 log10(2). (design.md section 7 writes "minus 3 dB";
+    PSNR(reference, truth) = PSNR(a, b) + 10 log10(2). (docs/design.md section 7 writes "minus 3 dB";
     the sign is corrected here: the noise-free quadrature scores PSNR(a, b) + 2.9 to 3.0 dB
     against a reference, see tests/groundtruth/test_quadrature.py.)
     """

@@ -27,6 +27,7 @@ second sweep, paper run or report into the same folder is refused.
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import json
 import os
 import types
@@ -37,6 +38,7 @@ from pathlib import Path
 from typing import Any
 
 from scenes import InputError
+from scenes.storage.files import write_bytes
 
 RESULTS = "results.jsonl"
 
@@ -216,8 +218,6 @@ class ResultStore:
 
     def rewrite(self, rows: list[ResultRow]) -> None:
         """Replace the file's rows atomically (temporary file + rename; no temporary file is left on failure)."""
-        from scenes.storage.files import write_bytes
-
         text = "".join(json.dumps(r.to_dict(), allow_nan=False, sort_keys=True) + "\n" for r in rows)
         write_bytes(self.path, text.encode("utf-8"))
 
@@ -241,8 +241,6 @@ class FolderBusy(InputError):
 def folder_lock(folder: Path) -> Iterator[Path]:
     """Hold an exclusive lock on a results folder while writing it; FolderBusy when another process
     holds it. The lock is on the folder itself (no lock file is left behind) and ends with the process."""
-    import fcntl
-
     fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     try:
         try:

@@ -1,4 +1,4 @@
-"""Where the CLI writes: checked before the work, written atomically, nowhere else (issue 11, section 2).
+"""Where the CLI writes: checked before the work, written atomically, nowhere else.
 
 - `Outputs` checks every output path a command will write before anything renders: a file where a
   folder is needed or the reverse, a device or pipe, a parent that cannot be created, a read-only
@@ -24,10 +24,19 @@ import unicodedata
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from experiments.cli.inputs import UsageError
+from rich import progress as rp
+from rich.console import Console
+
+from experiments.publish.text import one_line
+from scenes import InputError
 from scenes.storage.files import write_bytes as _write_bytes
 
-__all__ = ["Outputs", "progress", "slug", "write_bytes", "write_text"]
+__all__ = ["Outputs", "UsageError", "progress", "slug", "write_bytes", "write_text"]
+
+
+class UsageError(InputError):
+    """Bad command-line usage, such as an output path that cannot be written (exit 2). Defined here, below
+    the CLI, because the output checks raise it; experiments/cli/inputs.py re-exports it."""
 
 
 def slug(name: str, limit: int = 64) -> str:
@@ -51,9 +60,6 @@ def write_text(path: Path, text: str) -> None:
 def rich_progress(*columns, **kwargs):
     """A rich Progress for long work (sweeps, the paper suite, PRT precomputation): on stderr, and off
     (`disable`) when stderr is not a terminal, so CI logs, pipes and a command's stdout never see it."""
-    from rich import progress as rp
-    from rich.console import Console
-
     try:
         interactive = sys.stderr.isatty()
     except (AttributeError, ValueError):
@@ -71,8 +77,6 @@ def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], No
     written, so CI logs and pipes never see the bar. The bar is transient: it is gone when the block
     ends, leaving the terminal to the command's own output.
     """
-    from experiments.publish.text import one_line
-
     stream = sys.stderr if stream is None else stream
     try:
         interactive = stream.isatty()
@@ -81,9 +85,6 @@ def progress(label: str, total: int, stream=None) -> Iterator[Callable[[str], No
     if not interactive:
         yield lambda text: None
         return
-    from rich import progress as rp
-    from rich.console import Console
-
     columns = [rp.TextColumn(f"[bold]{label}"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("{task.description}", markup=False)]
     # stdout is never redirected: what a command prints there stays its result, even mid-bar

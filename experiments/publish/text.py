@@ -1,4 +1,4 @@
-"""Text that leaves iblcheck for a terminal, an XML file or a Markdown file (issue 11, section 1).
+"""Text that leaves iblcheck for a terminal, an XML file or a Markdown file.
 
 Scene names, file names and `--set` values are user text: a name may hold ANSI escape sequences,
 newlines, NUL bytes, bidirectional overrides or bytes that are not UTF-8 (a file name decoded with
@@ -16,6 +16,7 @@ one of these functions; HTML goes through Jinja's autoescape (experiments/publis
   (newlines and tabs kept: HTML whitespace); Jinja's autoescape then escapes the markup.
 - `md_cell(text)`: `visible`, with `&`, `<`, `>` written as entities and `|` escaped, so a cell can
   neither end a Markdown table row nor smuggle HTML into a renderer that passes HTML through.
+- `comparison_table(rows)`: the plain-text table of `iblcheck compare`, every cell through `one_line`.
 """
 
 from __future__ import annotations
@@ -74,3 +75,26 @@ def md_cell(text: object) -> str:
 def html_text(value: object) -> object:
     """Every `{{ value }}` of the report page before autoescape: strings made visible (see above)."""
     return visible(value, keep="\n\t") if isinstance(value, str) else value
+
+
+def comparison_table(rows: list[dict]) -> str:
+    """A plain-text table of `experiments.measure.comparison.compare` dicts for humans (`iblcheck compare`);
+    every cell goes through `one_line`."""
+    cols = [("scene", "scene", "{}"), ("PSNR dB", "psnr", "{:.2f}"), ("unbiased dB", "psnr_unbiased", "{:.2f}"),
+            ("floor dB", "noise_floor_psnr", "{:.2f}"),
+            ("SSIM", "ssim", "{:.4f}"), ("FLIP", "flip", "{:.4f}"), ("relMSE", "rel_mse", "{:.3g}"),
+            ("filter ms", ("realtime_ms", "filter"), "{:.2f}"), ("draw ms", ("realtime_ms", "draw"), "{:.2f}"),
+            ("frame ms", ("realtime_ms", "total"), "{:.2f}"),  # every per-frame key (lights, shadow, ...) + draw
+            ("ref s", "reference_s", "{:.1f}"), ("spp", "reference_spp", "{}"), ("pixels", "pixels", "{}")]
+
+    def get(row, key):
+        return row.get(key[0], {}).get(key[1]) if isinstance(key, tuple) else row.get(key)
+
+    cells = [[h for h, _, _ in cols]]
+    for row in rows:
+        cells.append(["-" if get(row, k) is None else one_line(f.format(get(row, k)), 80) for _, k, f in cols])
+    widths = [max(len(r[i]) for r in cells) for i in range(len(cols))]
+    lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
+             for r in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    return "\n".join(lines)

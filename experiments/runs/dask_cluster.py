@@ -59,20 +59,36 @@ Worker processes
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import socket
 import time
+import warnings
 from collections import deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import dask
+from distributed import Client, LocalCluster, as_completed, wait
 from distributed.diagnostics.plugin import WorkerPlugin
+from rich import progress as rp
 
+import scenes
 from experiments.publish import outputs
 from experiments.publish.text import one_line
+from experiments.runs.rows import content_id, error_row, run_row, short
+from groundtruth.exact import quadrature
+from groundtruth.pathtracer import reference
+from groundtruth.pathtracer import reference_cache as cache
+from groundtruth.pathtracer.reference import second_seed
+from groundtruth.pathtracer.variant import mitsuba
+from realtime.techniques.prt import prt_transfer
+from realtime.techniques.prt.prt import transfer_objects
+from realtime.techniques.prt.prt_transfer import cached_transfer, transfer_key
 from scenes import InputError, MissingCapability
+from scenes.model.scene import from_dict
 
 #: how often a task that raises is tried again (worker deaths are counted apart, by the scheduler)
 RETRIES = 2
@@ -123,18 +139,14 @@ def _drjit_cache_dir() -> tuple[str | None, str]:
 def worker_setup(drjit_threads: int | None = None) -> dict:
     """Set up Mitsuba in this process (see the module docstring) and return what was found. Never
     raises: a failure is recorded as `ok = False` with `error`."""
-    import warnings
-
     t0 = time.perf_counter()
     info: dict[str, Any] = {"host": socket.gethostname(), "pid": os.getpid(), "ok": False}
     try:
         info["drjit_cache"], info["drjit_cache_note"] = _drjit_cache_dir()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            from groundtruth.pathtracer.variant import mitsuba
-
             mi = mitsuba()
-        import drjit as dr
+        import drjit as dr  # deferred: Dr.Jit comes with Mitsuba, loaded only once its variant is set
 
         if drjit_threads:
             dr.set_thread_count(int(drjit_threads))
@@ -144,9 +156,7 @@ def worker_setup(drjit_threads: int | None = None) -> dict:
     except Exception as exc:  # MissingCapability, a broken install: reported by the driver
         hint = getattr(exc, "hint", "")
         info["error"] = one_line(f"{type(exc).__name__}: {exc}" + (f" ({hint})" if hint else ""), 300)
-    from groundtruth.pathtracer.reference_cache import cache_dir
-
-    info["iblcheck_cache"] = str(cache_dir())
+    info["iblcheck_cache"] = str(cache.cache_dir())
     info["setup_s"] = time.perf_counter() - t0
     return info
 
@@ -205,8 +215,7 @@ def scene_payload(scene) -> dict:
 
 
 def scene_from_payload(payload: dict):
-    from scenes.model.scene import from_dict
-
+    """The scene a worker rebuilds from `scene_payload`'s dict."""
     return from_dict(payload["tree"], payload["where"], Path(payload["base_dir"]), name_default=payload["name"])
 
 
@@ -214,8 +223,6 @@ def _mitsuba_for_task():
     info = ensure_setup()
     if not info["ok"]:
         raise RuntimeError(f"worker {info['host']} (pid {info['pid']}) has no usable Mitsuba variant: {info['error']}")
-    from groundtruth.pathtracer.variant import mitsuba
-
     mi = mitsuba()
     if mi.variant() != info["variant"]:  # a variant is per thread in some Mitsuba versions
         mi.set_variant(info["variant"])
@@ -227,9 +234,6 @@ def reference_task(payload: dict, seed: int, expect: str, cache_dir: str | None 
     """One Mitsuba reference of a scene at `seed` (a task). Returns {"render": Render, "host", "pid",
     "seconds"}; `expect` is the driver's reference content id of the scene."""
     info = _mitsuba_for_task()
-    from experiments.runs.sweep import content_id
-    from groundtruth.pathtracer import reference
-
     scene = scene_from_payload(payload)
     got = content_id(scene, reference_only=True)
     if got != expect:
@@ -243,18 +247,18 @@ def reference_task(payload: dict, seed: int, expect: str, cache_dir: str | None 
 
 def quadrature_task(payload: dict) -> dict:
     """The noise-free quadrature of a scene (a task; numpy only). Returns {"render", "host", "pid", "seconds"}."""
-    from groundtruth.exact import quadrature
-
     t0 = time.perf_counter()
     render = quadrature.render(scene_from_payload(payload))
     return {"render": render, "host": socket.gethostname(), "pid": os.getpid(), "seconds": time.perf_counter() - t0}
 
 
 def prt_settings(scene) -> tuple[int, int, int, bool] | None:
-    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes, as realtime/techniques/prt/prt.py
-    asks for
-    it (None: no PRT). Were the two to differ, the driver would compute the transfer again (a cache miss),
-    never use a wrong one: the cache key holds all four."""
+    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes (None: no PRT). Were these
+    to differ from what the PRT technique asks for, the driver would compute the transfer again (a cache
+    miss), never use a wrong one: the cache key holds all four."""
+    # SEAM (effective settings): this derives PRT's settings a second time, beside the PRT technique
+    # package, with its own default for `rays`. Replace the body with that package's single function for
+    # the effective settings (returning None without PRT); nothing else here reads rt.prt.
     rt = scene.realtime
     if rt.diffuse != "prt":
         return None
@@ -266,9 +270,6 @@ def prt_settings(scene) -> tuple[int, int, int, bool] | None:
 def precompute_task(payload: dict, cache_dir: str | None = None) -> dict:
     """The precomputation of a scene's real-time techniques that runs without GL: PRT's transfer vectors
     (numpy + Embree), into the PRT cache (a task). Returns {"arrays", "info", "host", "pid", "seconds"}."""
-    from realtime.techniques.prt.prt import transfer_objects
-    from realtime.techniques.prt.prt_transfer import cached_transfer
-
     scene = scene_from_payload(payload)
     order, rays, bounces, shadowed = prt_settings(scene)
     t0 = time.perf_counter()
@@ -346,11 +347,6 @@ class Cluster:
             raise
 
     def _start(self, t0: float) -> None:
-        import logging
-
-        import dask
-        from distributed import Client, LocalCluster
-
         self._config = dask.config.set({"distributed.worker.multiprocessing-method": "spawn",
                                         "distributed.worker.daemon": True})
         threads = None
@@ -421,9 +417,6 @@ class Cluster:
     # -- tasks -------------------------------------------------------------------------------------
     def reference_keys(self, scene, ref_id: str | None = None) -> list[tuple[str, int]]:
         """[(task key, seed)] of the two references of `scene` (the seed and the noise-floor seed)."""
-        from experiments.runs.sweep import content_id
-        from groundtruth.pathtracer.reference import second_seed
-
         ref_id = ref_id or content_id(scene, reference_only=True)
         seed = int(scene.reference.seed)
         name = getattr(self.reference_fn, "__name__", "reference")
@@ -431,8 +424,6 @@ class Cluster:
 
     def submit_references(self, scene) -> list[str]:
         """Submit the scene's two reference tasks (a key already held is not submitted again)."""
-        from experiments.runs.sweep import content_id
-
         ref_id = content_id(scene, reference_only=True)
         keys, payload, cache = [], None, self._local_cache()
         for key, seed in self.reference_keys(scene, ref_id):
@@ -449,9 +440,6 @@ class Cluster:
         settings = prt_settings(scene)
         if settings is None:
             return None
-        from realtime.techniques.prt.prt import transfer_objects
-        from realtime.techniques.prt.prt_transfer import transfer_key
-
         key = f"precompute-{transfer_key(transfer_objects(scene), *settings)}"
         if key not in self.futures:
             self.futures[key] = self.client.submit(precompute_task, scene_payload(scene), self._local_cache(),
@@ -466,8 +454,7 @@ class Cluster:
         return keys + ([pre] if pre else [])
 
     def submit_quadrature(self, scene) -> str:
-        from experiments.runs.sweep import content_id
-
+        """Submit the scene's noise-free quadrature as a task (a key already held is not submitted again)."""
         key = f"quadrature-{content_id(scene, reference_only=True)}"
         if key not in self.futures:
             self.futures[key] = self.client.submit(quadrature_task, scene_payload(scene), key=key,
@@ -479,9 +466,7 @@ class Cluster:
         """The driver's cache folder for a local cluster's workers (None: workers use their own)."""
         if self._cluster is None:
             return None
-        from groundtruth.pathtracer.reference_cache import cache_dir
-
-        return str(cache_dir().absolute())
+        return str(cache.cache_dir().absolute())
 
     def quadrature(self, scene) -> tuple:
         """(the quadrature Render of `scene`, its seconds on the worker that ran it), as a task."""
@@ -508,8 +493,6 @@ class Cluster:
         """The scene's two reference Renders, rendered on the cluster (both seeds at once, and its PRT
         transfer beside them, into the driver's cache); raises the task's error after its retries. For
         the paper suite's rows."""
-        from distributed import wait
-
         keys = self.submit_row(scene)
         wait([self.futures[k] for k in keys])
         out = []
@@ -528,8 +511,6 @@ class Cluster:
 
     def wait_idle(self) -> None:
         """Wait until every task held has finished (before timing frames on a shared host)."""
-        from distributed import wait
-
         if self.futures:
             wait(list(self.futures.values()))
 
@@ -584,11 +565,7 @@ def describe_error(fut) -> str:
 def keep_in_driver_cache(res: dict) -> None:
     """Store a handed-back reference (or PRT transfer) in the driver's cache when it is not there (a worker
     on another machine made it; on one machine the worker already wrote this very file)."""
-    from groundtruth.pathtracer import reference_cache as cache
-
     if "arrays" in res:  # a PRT transfer: the entry as realtime/techniques/prt/prt_transfer.py writes it
-        from realtime.techniques.prt import prt_transfer
-
         info, folder = res["info"], cache.cache_dir() / "prt"
         if not (folder / f"{info['key']}.npz").exists():
             prt_transfer._store(folder, info["key"], res["arrays"], {
@@ -626,25 +603,6 @@ class _Row:
     keys: list[str]
 
 
-def error_row(spec: str, overrides: dict, rid: str, message: str):
-    """A row for a configuration whose reference (or real-time part) failed: what the scene is, no
-    metrics, `error` set. The next run computes it again."""
-    import scenes
-    from experiments.measure.results import ResultRow
-    from experiments.runs.sweep import content_id, materials_of
-    from realtime.engine import technique
-
-    scene = scenes.load(spec).with_overrides(overrides)
-    face = scene.realtime.face_size
-    return ResultRow(
-        id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=technique.describe(scene),
-        materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
-        unsimulated_effects=[], width=scene.camera.width, height=scene.camera.height,
-        face_size=face if isinstance(face, int) else 0, psnr=None, ssim=None, flip=None, rel_mse=None,
-        noise_floor_psnr=None, at_noise_floor=None, pixels=0, realtime_ms={"filter": None, "draw": None, "total": None},
-        reference_id=content_id(scene, reference_only=True), host=socket.gethostname(), error=one_line(message, 600))
-
-
 def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict, str]], done: int,
              echo: Callable[[str], None] | None = print) -> list:
     """The sweep on `cluster`: submit every row's references, then, as they complete, render each row's
@@ -657,12 +615,6 @@ def run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict,
 
 def _run_rows(cluster: Cluster, out_dir: Path, store, todo: list[tuple[str, dict, str]], done: int,
               echo: Callable[[str], None] | None) -> list:
-    from distributed import as_completed
-    from rich import progress as rp
-
-    import scenes
-    from experiments.runs.sweep import run_row, short
-
     t_start = time.perf_counter()
     rows: dict[str, _Row] = {}
     users: dict[str, list[str]] = {}

@@ -3,7 +3,7 @@
 Thresholds per scene: the command line's (`--min-psnr`, `--min-ssim`, `--max-flip`) override
 the scene's `[gate]` table. A scene with no threshold, no baseline to compare with and none to
 write is a usage error (a gate that cannot fail is no gate). Exit code 0 when every check passes, 1 when any fails
-(design.md section 6); bad scenes and a bad baseline file are refused before anything renders
+(docs/design.md section 6); bad scenes and a bad baseline file are refused before anything renders
 (exit 2). `--junit FILE` writes JUnit XML: one test case per scene, a <failure> naming each failed
 check, properties with every value; `--markdown FILE` a short table for a pull-request comment.
 Names are cleaned of control characters (experiments/publish/text.py: XML 1.0 cannot hold them; Markdown
@@ -89,13 +89,22 @@ import time
 import xml.etree.ElementTree as ET
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from importlib import metadata
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import groundtruth
+import realtime
+import scenes
+from experiments.measure import comparison, metrics
+from experiments.measure.pair import measure_pair
+from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
+from experiments.runs.rows import content_id, scene_content
 from scenes import InputError
+from scenes.storage.files import read_input
 
 CHECKS = (("min_psnr", "psnr", ">="), ("min_ssim", "ssim", ">="), ("max_flip", "flip", "<="))
 
@@ -208,8 +217,6 @@ def run(scene_specs: list[str], cli_thresholds: dict, sets: dict | None = None) 
 def load(scene_specs: list[str], cli_thresholds: dict, sets: dict | None = None,
          thresholds_required: bool = True) -> list[Planned]:
     """Every scene loaded and validated, with its thresholds (bad input fails before any render)."""
-    import scenes
-
     loaded, keys = [], {}
     for spec in scene_specs:
         s = scenes.load(spec)
@@ -237,11 +244,7 @@ class Measured:
 def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
     """Render `scene`'s reference (and its second seed) and its real-time image, and compare them:
     comparison.run in steps, each announced to `step` (a progress bar), with the reference-noise
-    standard errors of SSIM and FLIP (`metric_noise`) when `noise`."""
-    import groundtruth
-    import realtime
-    from experiments.measure import comparison, metrics
-
+    standard errors of SSIM and FLIP (`metric_noise`, reusing the pair's SSIM and FLIP maps) when `noise`."""
     step = step or (lambda text: None)
     t0 = time.perf_counter()
     name = one_line(scene.name, 60)
@@ -252,12 +255,11 @@ def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True
     step(f"{name}: real-time")
     test = realtime.render(scene)
     step(f"{name}: metrics")
-    result = comparison.compare(test, reference, scene, reference2)
+    m = measure_pair(test, reference, scene, second_reference=reference2)
+    result = comparison.compare(test, reference, scene, reference2, measured=m)
     extra = {}
     if noise and reference2 is not None:
-        mask = metrics.common_mask(test.mask, reference.mask) & reference2.mask
-        a, b, b2 = (metrics.display(scene, x.rgb) for x in (test, reference, reference2))
-        extra = metric_noise(a, b, b2, mask)
+        extra = metric_noise(m.test, m.reference, m.reference2, m.noise_mask, ssim_map=m.ssim_map, flip_map=m.flip_map)
     digests = {"image_sha256": _digest(test.rgb, test.mask), "reference_sha256": _digest(reference.rgb, reference.mask)}
     return Measured(result, extra, dict(test.meta), dict(reference.meta), digests, time.perf_counter() - t0)
 
@@ -291,30 +293,16 @@ def block_se(diff: np.ndarray, sel: np.ndarray, block: int = BLOCK) -> float | N
     return float(math.sqrt(len(s) / (len(s) - 1) * float(((s - c * mean) ** 2).sum())) / n)
 
 
-def ssim_map(test: np.ndarray, reference: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
-    """(map, selection) of metrics.ssim: the channel-mean SSIM map and the pixels it averages
-    (mean(map[selection]) == metrics.ssim(test, reference, mask)); None where metrics.ssim is None."""
-    from skimage.metrics import structural_similarity
-
-    h, w = mask.shape
-    if not mask.any() or min(h, w) < 7:
-        return None
-    _, smap = structural_similarity(np.asarray(test, np.float64), np.asarray(reference, np.float64),
-                                    data_range=1.0, channel_axis=-1, full=True)
-    inner = np.zeros_like(mask)
-    inner[3:h - 3, 3:w - 3] = True
-    sel = mask & inner
-    return (smap.mean(axis=-1), sel) if sel.any() else None
-
-
-def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray, mask: np.ndarray) -> dict:
+def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray, mask: np.ndarray, *,
+                 ssim_map: np.ndarray | None = None, flip_map: np.ndarray | None = None) -> dict:
     """How the reference's noise moves the metrics of `test` (display values; module docstring):
     `mse_se`, `ssim_se`, `flip_se`, the standard errors, from the maps against two independently seeded
     references; `ssim_noise_slope`, `flip_noise_slope`, the change of the metric per unit of noise
     variance, from the reference against the mean of both (half the variance). None where it cannot
-    be estimated (too few pixels, a noise-free reference)."""
-    from experiments.measure import metrics
+    be estimated (too few pixels, a noise-free reference).
 
+    `ssim_map`, `flip_map`: the maps of (test, reference) already computed (`pair.Measurement`), so
+    that they are not computed again; computed here when None."""
     out = dict.fromkeys(("mse_se", "ssim_se", "flip_se", "ssim_noise_slope", "flip_noise_slope"))
     if not mask.any():
         return out
@@ -323,13 +311,15 @@ def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray
     variance = float(np.mean(((r1 - r2) ** 2)[mask])) / 2  # per value: 10^(-noise_floor_psnr / 10)
     se = block_se(((t - r1) ** 2 - (t - r2) ** 2).mean(axis=-1), mask, block=1)  # pixels are independent
     out["mse_se"] = None if se is None else se / math.sqrt(2)
-    one, two, mid = ssim_map(t, r1, mask), ssim_map(t, r2, mask), ssim_map(t, half, mask)
-    if one is not None and two is not None:
-        se = block_se(one[0] - two[0], one[1])
+    sel = metrics.ssim_selection(mask)
+    if min(mask.shape) >= metrics.SSIM_WINDOW and sel.any():
+        one = ssim_map if ssim_map is not None else metrics.ssim(t, r1, mask, full=True).map
+        two, mid = metrics.ssim(t, r2, mask, full=True).map, metrics.ssim(t, half, mask, full=True).map
+        se = block_se(one - two, sel)
         out["ssim_se"] = None if se is None else se / math.sqrt(2)
         if variance > 0:
-            out["ssim_noise_slope"] = float(one[0][one[1]].mean() - mid[0][mid[1]].mean()) / (variance / 2)
-    f1 = metrics.flip_map(t, r1)
+            out["ssim_noise_slope"] = float(one[sel].mean() - mid[sel].mean()) / (variance / 2)
+    f1 = flip_map if flip_map is not None else metrics.flip_map(t, r1)
     se = block_se(f1 - metrics.flip_map(t, r2), mask)
     out["flip_se"] = None if se is None else se / math.sqrt(2)
     if variance > 0:
@@ -338,8 +328,6 @@ def metric_noise(test: np.ndarray, reference: np.ndarray, reference2: np.ndarray
 
 
 def iblcheck_version() -> str:
-    from importlib import metadata
-
     try:
         return metadata.version("iblcheck")
     except metadata.PackageNotFoundError:  # run from a checkout that was never installed
@@ -348,8 +336,6 @@ def iblcheck_version() -> str:
 
 def make_record(planned: Planned, m: Measured) -> dict:
     """What --write-baseline stores for a scene (module docstring)."""
-    from experiments.runs.sweep import content_id, scene_content
-
     ref = m.reference_meta
     record = {
         "name": planned.scene.name,
@@ -545,8 +531,6 @@ def _fmt(metric: str, value: float | None, signed: bool = False) -> str:
 
 def write_baseline(path: Path, results: list[GateResult]) -> None:
     """FILE: this run's records, keyed by scene key (written atomically)."""
-    from experiments.publish.outputs import write_text
-
     scenes_out = {}
     for r in results:
         if r.record is not None:
@@ -563,8 +547,6 @@ def _reject_constant(name: str):
 def read_baseline(path: str | Path) -> dict:
     """The baseline file at `path`, checked: {"path", "scenes": {key: record}, ...}. Every problem is a
     BaselineError naming the file (and the field)."""
-    from scenes.storage.files import read_input
-
     path = Path(path)
     data = read_input(path, "baseline file", MAX_BASELINE_BYTES, BaselineError)
     try:
@@ -700,8 +682,6 @@ def write_junit(path: Path, results: list[GateResult]) -> None:
             fail.text = "\n".join(xml_text(f) for f in r.failures)
     root = ET.Element("testsuites", name="iblcheck")
     root.append(suite)
-    from experiments.publish.outputs import write_bytes
-
     write_bytes(path, ET.tostring(root, encoding="utf-8", xml_declaration=True))
 
 
@@ -754,6 +734,4 @@ def markdown(results: list[GateResult], baseline: dict | None = None) -> str:
 
 
 def write_markdown(path: Path, results: list[GateResult], baseline: dict | None = None) -> None:
-    from experiments.publish.outputs import write_text
-
     write_text(path, markdown(results, baseline))

@@ -2,7 +2,7 @@
 
 Axes are any scene keys (`--axis realtime.glossy=box,prefiltered`, repeatable) plus the shortcuts
 `--face-sizes`, `--lod-biases`, `--exponents`, `--f0s`, `--envs`, `--lod-mappings`. An axis that
-cannot change a configuration's image is dropped from that configuration (design.md section 4), and
+cannot change a configuration's image is dropped from that configuration (docs/design.md section 4), and
 the configurations left are deduplicated:
 - a technique choice (`realtime.diffuse`, `realtime.glossy`, ...) matters only when the scene has
   that effect;
@@ -15,40 +15,54 @@ The reference depends on none of the real-time keys; its cache renders it once p
 Rows (experiments/measure/results.py) are appended to DIR/results.jsonl as they finish (flushed and
 fsynced). A rerun skips the rows already there (by `id`) and drops a half-written last line.
 
-Row ids are keyed by content (issue 11), like the reference cache: a hash of the resolved scene (every
-key with its default filled in, `to_dict`), the bytes of a map file and of mesh files (not their
-paths), and ROW_VERSION and the reference plugin's version. So:
+Row ids are keyed by content, like the reference cache (experiments/runs/rows.py, `content_id`): a hash
+of the resolved scene, the bytes of a map file and of mesh files, ROW_VERSION and the reference plugin's
+version. So:
 - editing the scene file, the map or a mesh and rerunning computes new rows; the old rows, whose
   content no longer matches their spec and overrides, are dropped from the store (with a warning);
 - two configurations that resolve to the same content (`--face-sizes 8,8`, `a.exr,./a.exr`, an axis
   value equal to the scene's own) are one row of the plan;
 - one process writes a folder at a time (results.folder_lock): a second sweep into it is refused.
 
-`--workers N` / `--scheduler ADDRESS` render the references as Dask tasks and keep the real-time part
-(and its frame times) here (experiments/runs/dask_cluster.py); a row whose reference failed there is written
-with `error` set, and the next run computes it again.
+Each row is rendered, measured once and pictured by `rows.run_row`, here one after the other (the
+serial executor) or with `--workers N` / `--scheduler ADDRESS` on Dask, which renders the references as
+tasks and keeps the real-time part (and its frame times) here (experiments/runs/dask_cluster.py); a
+row whose reference failed there is written with `error` set, and the next run computes it again.
 """
 
 from __future__ import annotations
 
-import hashlib
 import itertools
 import json
 import warnings
 from dataclasses import dataclass, field
-from functools import lru_cache
 from pathlib import Path
 from typing import Any
 
-from experiments.measure import comparison
+from rich import progress as rp
+
+import scenes
 from experiments.measure.results import RESULTS, ResultRow, folder_lock, store_in
-from experiments.publish import images
+from experiments.publish import outputs
+from experiments.publish.report import build as build_report
 from experiments.publish.text import one_line
+from experiments.runs.rows import (
+    ROW_VERSION,
+    content_id,
+    file_digest,
+    materials_of,
+    row_id,
+    run_row,
+    scene_content,
+    short,
+    with_equal_quality,
+)
+from realtime.engine import technique
+from scenes import InputError, SceneError
+from scenes.model.scene import table_users
 
-__all__ = ["RESULTS", "Axes", "configurations", "content_id", "plan", "row_id", "run", "run_row"]
-
-#: bump when what a row measures changes for the same scene (it is part of every row id)
-ROW_VERSION = 2
+__all__ = ["RESULTS", "ROW_VERSION", "Axes", "configurations", "content_id", "file_digest", "materials_of", "plan",
+           "row_id", "run", "run_row", "scene_content", "short", "with_equal_quality"]
 
 
 class StaleRowsWarning(UserWarning):
@@ -114,9 +128,6 @@ def chosen_scene(scene, overrides: dict[str, Any], cache: dict | None = None):
 
 def relevant(scene, key: str, overrides: dict[str, Any], cache: dict | None = None) -> bool:
     """Whether `key` can change the image of `scene` with `overrides` (see the module docstring)."""
-    from realtime.engine import technique
-    from scenes.model.scene import table_users
-
     cfg = chosen_scene(scene, overrides, cache)
     fx = cfg.effects
     if key.endswith("material.exponent"):
@@ -142,8 +153,6 @@ def technique_choices(scene) -> list[dict[str, str]]:
     ({"realtime.diffuse": ..., "realtime.occlusion": ...}); "none" counts as a choice for occlusion and
     interreflection (the paper's), and combinations the scene model refuses (shadow maps without the
     light array) are left out."""
-    from realtime.engine import technique
-
     effects = [e for e in technique.EFFECT_KEYS if e in scene.effects]
     options = []
     for effect in effects:
@@ -164,8 +173,6 @@ def technique_choices(scene) -> list[dict[str, str]]:
 
 def technique_grid(choice: dict[str, str]) -> list[tuple[str, list[Any]]]:
     """The axes the chosen techniques declare worth sweeping (`Technique.axes`), with the choice itself."""
-    from realtime.engine import technique
-
     out: list[tuple[str, list[Any]]] = [(k, [v]) for k, v in choice.items()]
     for key, value in choice.items():
         effect = key.split(".")[1]
@@ -210,8 +217,6 @@ def _configurations(scene, grid, out: list, seen: set, check: bool = False) -> l
 
 
 def _valid_choices(scene, overrides: dict, cache: dict) -> bool:
-    from scenes import SceneError
-
     try:
         chosen_scene(scene, overrides, cache)
     except SceneError:
@@ -220,78 +225,11 @@ def _valid_choices(scene, overrides: dict, cache: dict) -> bool:
 
 
 def _valid(scene, overrides: dict) -> bool:
-    from scenes import SceneError
-
     try:
         scene.with_overrides(overrides)
     except SceneError:
         return False
     return True
-
-
-@lru_cache(maxsize=64)
-def _file_digest(path: str, mtime_ns: int, size: int) -> str:
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
-def file_digest(path: str) -> str:
-    """SHA-256 of a file's bytes, cached per (path, modification time, size)."""
-    st = Path(path).stat()
-    return _file_digest(str(path), st.st_mtime_ns, st.st_size)
-
-
-def scene_content(scene, reference_only: bool = False) -> dict:
-    """What determines a row of `scene`: the resolved scene with file paths replaced by digests of
-    their content (a map's bytes, a mesh's arrays as read); the [gate] table is left out (it changes no
-    measurement). `reference_only` keeps what the reference depends on (no [realtime], no tone mapping)."""
-    from scenes.geometry.meshes import BUILTIN_MESHES
-
-    d = scene.to_dict()
-    d.pop("path", None)
-    d.pop("gate", None)
-    env = d["environment"]
-    if not scene.environment.builtin_name:
-        env["map"] = {"sha256": file_digest(scene.environment.map)}
-    for obj, od in zip(scene.objects, d["objects"], strict=True):
-        if obj.shape not in BUILTIN_MESHES:
-            # the mesh as read, not the file's bytes: a .gltf's buffers live in other files
-            import numpy as np
-
-            h = hashlib.sha256()
-            for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):
-                h.update(np.ascontiguousarray(arr).tobytes())
-            od["shape"] = {"mesh_sha256": h.hexdigest()}
-    if reference_only:
-        if scene.reference.lighting == "light_array":  # the reference renders the real-time light array
-            from scenes.environment.light_array import LIGHT_ARRAY_VERSION
-
-            lights = scene.realtime.lights
-            d["reference"]["light_array"] = {"placement": lights.placement, "count": lights.count,
-                                             "version": LIGHT_ARRAY_VERSION}
-        for key in ("realtime", "tonemap", "name"):
-            d.pop(key, None)
-    return d
-
-
-def content_id(scene, reference_only: bool = False) -> str:
-    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION and the reference plugin's version."""
-    from groundtruth.pathtracer.paper_bsdf import PLUGIN_VERSION
-
-    text = json.dumps({"row": ROW_VERSION, "plugin": PLUGIN_VERSION,
-                       "scene": scene_content(scene, reference_only)}, sort_keys=True, default=str)
-    return hashlib.sha256(text.encode()).hexdigest()[:16]
-
-
-def row_id(scene_spec: str, overrides: dict) -> str:
-    """The content id of the row (scene_spec, overrides) (see the module docstring)."""
-    import scenes
-
-    scene = scenes.load(scene_spec)
-    return content_id(scene.with_overrides(overrides) if overrides else scene)
 
 
 def plan(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[tuple[str, dict]]:
@@ -302,8 +240,7 @@ def plan(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[t
 
 
 def plan_with_ids(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[tuple[str, dict, str]]:
-    import scenes
-
+    """`plan` with each row's content id: [(scene spec, overrides, id)]."""
     out, seen = [], set()
     for spec in scene_specs:
         base = scenes.load(spec)
@@ -321,8 +258,6 @@ def plan_with_ids(scene_specs: list[str], axes: Axes, sets: dict | None = None) 
 def stale(rows: list[ResultRow]) -> list[ResultRow]:
     """Rows whose spec and overrides no longer give their id (the scene file, map or a mesh changed,
     or the spec cannot be loaded any more)."""
-    from scenes import InputError
-
     out = []
     for r in rows:
         try:
@@ -332,68 +267,6 @@ def stale(rows: list[ResultRow]) -> list[ResultRow]:
         if now != r.id:
             out.append(r)
     return out
-
-
-def materials_of(scene) -> list[dict[str, Any]]:
-    from scenes.model import materials
-
-    return [{k: (list(v) if isinstance(v, tuple) else v) for k, v in materials.used_fields(o.material).items()}
-            for o in scene.objects]
-
-
-def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = None,
-            convergence_curve=None, extra: dict | None = None, references: tuple | None = None) -> ResultRow:
-    """Render one configuration in real time and its (cached) reference, compare, save the pictures.
-    With a reference `convergence_curve` (experiments.measure.convergence.curve), the row gets
-    `equal_quality_s`: the path tracer's time to the real-time image's unbiased PSNR.
-    `references`: the (reference, noise-floor reference) Renders already rendered elsewhere (a Dask
-    task, experiments/runs/dask_cluster.py); only the real-time part runs here then."""
-    import socket
-
-    import scenes
-    from realtime.engine import technique
-    from realtime.engine.context import renderer_name
-
-    scene = scenes.load(spec).with_overrides(overrides)
-    c = comparison.run(scene) if references is None else compare_with(scene, *references)
-    test = c.test
-    rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
-    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, scene, test, c.reference, c.mask)
-    m = c.metrics
-    row = ResultRow(
-        id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=technique.describe(scene),
-        materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
-        unsimulated_effects=m["unsimulated_effects"], width=scene.camera.width, height=scene.camera.height,
-        face_size=test.meta["face_size"], psnr=m["psnr"], ssim=m["ssim"], flip=m["flip"], rel_mse=m["rel_mse"],
-        noise_floor_psnr=m["noise_floor_psnr"], at_noise_floor=m["at_noise_floor"], pixels=m["pixels"],
-        realtime_ms=m["realtime_ms"], reference_s=m["reference_s"], reference_spp=m["reference_spp"],
-        reference_id=ref_id, reference_cache=m["reference_cache"], psnr_unbiased=m["psnr_unbiased"],
-        psnr_unbiased_clamped=m["psnr_unbiased_clamped"],
-        realtime_p90_ms={k: test.timings.get(f"{k}_p90") for k in m["realtime_ms"] if k != "precompute"},
-        experiment=experiment, host=socket.gethostname(), gl_renderer=renderer_name(), images=pics, extra=extra or {})
-    return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
-
-
-def compare_with(scene, reference, reference2) -> comparison.Comparison:
-    """The real-time render of `scene` compared with references rendered elsewhere (both seeds)."""
-    import realtime
-    from experiments.measure import metrics
-
-    test = realtime.render(scene)
-    return comparison.Comparison(comparison.compare(test, reference, scene, reference2=reference2), test, reference,
-                                 metrics.common_mask(test.mask, reference.mask))
-
-
-def with_equal_quality(row: ResultRow, curve) -> ResultRow:
-    """`row` with `equal_quality_s`: the path tracer's time to the row's unbiased PSNR (its plain PSNR
-    where that is undefined) on a reference convergence curve (experiments.measure.convergence.curve)."""
-    from dataclasses import replace
-
-    from experiments.measure import convergence
-
-    target = row.psnr_unbiased if row.psnr_unbiased is not None else row.psnr
-    seconds, how = convergence.equal_quality_s(curve, target)
-    return replace(row, equal_quality_s=seconds, equal_quality=how)
 
 
 def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = None,
@@ -406,8 +279,6 @@ def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = N
     of that many processes), `scheduler` (a running one) or `cluster` (an experiments.runs.dask_cluster.Cluster
     already started) render the references on Dask (experiments/runs/dask_cluster.py); without them the
     rows are computed here one after the other."""
-    from experiments.publish import outputs
-
     todo_plan = plan_with_ids(scene_specs, axes, sets)
     with outputs.Outputs() as out_plan, folder_lock(out_plan.folder(out_dir, "--out")):
         store = store_in(out_dir)
@@ -416,15 +287,14 @@ def run(scene_specs: list[str], axes: Axes, out_dir: Path, sets: dict | None = N
         if cluster is None and workers is None and scheduler is None:
             _run_rows(out_dir, store, [(s, o) for s, o, rid in todo_plan if rid not in done], len(done))
         else:
-            from experiments.runs import dask_cluster as distributed
+            # deferred: Dask (distributed) is a heavy optional library, loaded only for --workers/--scheduler
+            from experiments.runs import dask_cluster
 
-            with distributed.maybe_cluster(workers, scheduler, cluster) as cl:
-                distributed.run_rows(cl, out_dir, store, [t for t in todo_plan if t[2] not in done], len(done))
+            with dask_cluster.maybe_cluster(workers, scheduler, cluster) as cl:
+                dask_cluster.run_rows(cl, out_dir, store, [t for t in todo_plan if t[2] not in done], len(done))
         rows = store.read()
         if report:
-            from experiments.publish import report as report_mod
-
-            report_mod.build(out_dir)
+            build_report(out_dir)
     return rows
 
 
@@ -452,10 +322,7 @@ def drop_failed(store, rows: list[ResultRow]) -> list[ResultRow]:
 
 
 def _run_rows(out_dir: Path, store, todo: list[tuple[str, dict]], done: int) -> None:
-    from rich import progress as rp
-
-    from experiments.publish import outputs
-
+    """The serial executor: each row rendered, measured and appended here, in order."""
     columns = [rp.TextColumn("[bold]sweep"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
     with outputs.rich_progress(*columns, transient=False) as progress:
@@ -464,8 +331,3 @@ def _run_rows(out_dir: Path, store, todo: list[tuple[str, dict]], done: int) -> 
             progress.update(task, description=one_line(f"{spec} {short(ov)}", 120))
             store.append(run_row(out_dir, spec, ov))
             progress.advance(task)
-
-
-def short(overrides: dict) -> str:
-    return " ".join(f"{k.split('.')[-1]}={v}" for k, v in overrides.items()
-                    if not k.startswith(("camera.", "reference.")))

@@ -1,5 +1,5 @@
 """`compare` and `render` report the techniques, the unsimulated effects (with a warning line) and
-the unbiased PSNR (issue 10, design.md section 9)."""
+the unbiased PSNR (docs/design.md section 9)."""
 
 from __future__ import annotations
 
@@ -46,3 +46,13 @@ def test_not_implemented_technique_exits_2(capsys, monkeypatch):
     assert cli.main(["compare", "builtin:sphere-blend", "--set", "realtime.glossy=lights", *TINY]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and "not implemented yet" in err[0]
+
+
+def test_compare_prints_the_table_of_its_json(capsys):
+    """Without --json, `compare` prints the human table of the same numbers (publish.text.comparison_table)."""
+    assert cli.main(["compare", "builtin:sphere-blend", "--json", *TINY]) == 0
+    result = json.loads(capsys.readouterr().out)
+    assert cli.main(["compare", "builtin:sphere-blend", *TINY]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[0].split()[:3] == ["scene", "PSNR", "dB"] and set(lines[1]) == {"-", " "}
+    assert lines[2].split()[0] == "sphere-blend" and f"{result['psnr']:.2f}" in lines[2].split()

@@ -1,4 +1,4 @@
-"""Sweep axes (issue 10): any scene key, technique keys only where the technique runs, no duplicates,
+"""Sweep axes: any scene key, technique keys only where the technique runs, no duplicates,
 negative values without `=`; result rows through their typed store."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 11, section 5: the two renderers (and the quadrature) agree on back faces and silhouettes.
+"""The two renderers (and the quadrature) agree on back faces and silhouettes.
 
 One rule (scenes/model/materials.py): where the shading normal faces away from the viewer (n.v <= 0), a one-sided
 material is black in all three renderers; `material.two_sided = true` flips the normal instead (the reference

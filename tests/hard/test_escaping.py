@@ -1,4 +1,4 @@
-"""Issue 11, section 1: everything that reaches HTML, XML, Markdown or a terminal is escaped.
+"""Everything that reaches HTML, XML, Markdown or a terminal is escaped.
 
 Hostile names (experiments/paper/e06_hostile_cases.py: markup, script URLs, template syntax, mathtext, terminal escapes,
 control characters, bidirectional overrides) go into every field that carries text: the scene name, the
@@ -18,7 +18,6 @@ import numpy as np
 import pytest
 
 from experiments.cli import main as cli
-from experiments.measure.comparison import format_table
 from experiments.paper import e06_hostile_cases as hostile
 from experiments.paper.e06_hostile_runs import tiny_scene
 from experiments.publish import report, text
@@ -167,7 +166,7 @@ def test_junit_parses_whatever_the_names(tmp_path):
 def test_tables_for_the_terminal_hold_no_control_characters():
     results = [gate.GateResult(name, {"psnr": None}, {"min_psnr": 30.0}, ["x"]) for name in NAMES]
     assert hostile.terminal_problems(gate.format_table(results)) == []
-    assert hostile.terminal_problems(format_table([{"scene": n, "psnr": 1.0} for n in NAMES])) == []
+    assert hostile.terminal_problems(text.comparison_table([{"scene": n, "psnr": 1.0} for n in NAMES])) == []
 
 
 @pytest.mark.parametrize("name", NAMES, ids=IDS)

@@ -1,4 +1,4 @@
-"""Issue 11, section 3: exit codes keep their meaning.
+"""Exit codes keep their meaning.
 
 1 is only ever "a gate failed"; bad input and unusable paths 2; a missing machine dependency (or memory) 3;
 an internal error 4, one line, the traceback only under --debug; Ctrl-C 130, resumable. Every input that once

@@ -69,7 +69,7 @@ def test_camera_inside_the_object(tmp_path, monkeypatch):
     """Inside a closed sphere every pixel sees its inner, back-facing surface. The reference is exactly 0 (the
     sphere blocks all light), and so is the quadrature (whatever the back-face rule: F = 1 puts the lobe about
     the mirror direction below the horizon of n, and a one-sided material is black there). The real-time
-    image, which ignores occlusion, follows the back-face rule of scenes/model/materials.py (issue 11): only
+    image, which ignores occlusion, follows the back-face rule of scenes/model/materials.py: only
     required finite and non-negative here."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
     scene = small("builtin:sphere-blend", **{"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0})
@@ -207,7 +207,7 @@ def test_silhouette_normals_of_a_coarse_sphere():
     raycast (same mesh, same vertex normals) finds independently; F runs from f0 to nearly 1 across the
     coarse facets. Tolerance 1e-4 (measured 8e-6). Where the interpolated normal has turned away from the
     viewer (n.v <= 0, a few silhouette pixels) the image is only required to be finite: what a back face
-    shows is the back-face rule of scenes/model/materials.py (issue 11), not this test's."""
+    shows is the back-face rule of scenes/model/materials.py, not this test's."""
     from groundtruth.exact import raycast
 
     kd, ks, f0 = 0.3, 0.9, 0.04

@@ -1,4 +1,4 @@
-"""Issue 11, section 2: nothing is written outside where the user asked.
+"""Nothing is written outside where the user asked.
 
 Default output names are slugs of the scene name in the working directory; every output path is checked
 before anything renders (exit 2, one `error:` line); writes are atomic and leave no temporary file on

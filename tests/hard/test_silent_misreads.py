@@ -1,4 +1,4 @@
-"""Issue 11, section 4: silent misreads are refused.
+"""Silent misreads are refused.
 
 A file that holds no colour radiance is an error naming what it holds (alpha only, depth, chroma, several
 layers or parts, integers, a crop); a PFM scale of 0 is no byte order; a folder, device, pipe or link loop

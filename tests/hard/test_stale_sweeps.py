@@ -1,4 +1,4 @@
-"""Issue 11, section 6: sweeps never serve stale or duplicate rows.
+"""Sweeps never serve stale or duplicate rows.
 
 Row ids are keyed by content (the resolved scene, the map's and meshes' bytes, the row and plugin versions),
 so editing the scene file, the map or a mesh computes new rows and drops the stale ones; plans are
@@ -20,6 +20,7 @@ from experiments.cli import main as cli
 from experiments.measure.results import RESULTS, FolderBusy, ResultStore, folder_lock
 from experiments.paper import e06_hostile_cases as hostile
 from experiments.paper.e06_hostile_runs import tiny_scene
+from experiments.runs import rows as row_runner
 from experiments.runs import sweep
 from scenes.storage import imageio
 from tests.hard.common import ROOT
@@ -92,7 +93,7 @@ def test_the_map_by_content_not_path(files, tmp_path):
 
 def test_versions_are_part_of_the_id(files, monkeypatch):
     before = rid(files)
-    monkeypatch.setattr(sweep, "ROW_VERSION", sweep.ROW_VERSION + 1)
+    monkeypatch.setattr(row_runner, "ROW_VERSION", row_runner.ROW_VERSION + 1)  # where content_id reads it
     assert rid(files) != before
     monkeypatch.undo()
     from groundtruth.pathtracer import paper_bsdf
