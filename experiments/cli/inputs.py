@@ -5,12 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 import scenes
-from scenes import InputError
+from experiments.publish.outputs import UsageError  # defined below the CLI: the output checks raise it
 from scenes.model.scene import parse_literal
-
-
-class UsageError(InputError):
-    """Bad command-line usage (exit 2)."""
 
 
 def parse_sets(items: list[str] | None) -> dict[str, str]:

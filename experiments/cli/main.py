@@ -26,13 +26,12 @@ from types import ModuleType
 
 from experiments.cli import render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
-from experiments.measure import comparison
 from experiments.measure.results import folder_lock
 from experiments.paper import registry
 from experiments.paper import suite as paper
 from experiments.paper.context import CommandLine
 from experiments.publish import outputs, report
-from experiments.publish.text import one_line
+from experiments.publish.text import comparison_table, one_line
 from experiments.runs import gate, sweep
 from scenes import InputError, MissingCapability
 from scenes.model.scene import SCHEMA
@@ -206,7 +205,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     if result["pixels"] == 0:
         print(f"warning: {one_line(scene.name)}: no pixel is covered in both images (is the object outside the "
               "view?); the image metrics are undefined (null)", file=sys.stderr)
-    print(json.dumps(result, allow_nan=False) if args.json else comparison.format_table([result]))
+    print(json.dumps(result, allow_nan=False) if args.json else comparison_table([result]))
     return EXIT_OK
 
 

@@ -14,11 +14,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
+
 import groundtruth
 import realtime
 import scenes
+from experiments.measure import metrics
 from experiments.measure.results import ResultRow, store_in
-from experiments.runs.sweep import row_id, run_row, with_equal_quality
+from experiments.publish import images
+from experiments.runs.rows import row_id, run_row, with_equal_quality
 from groundtruth.exact import quadrature
 from scenes.model.render import Render
 from scenes.model.scene import Scene
@@ -118,12 +122,30 @@ class Context:
             self.cluster.wait_idle()
 
     @staticmethod
-    def image_of(row: ResultRow) -> tuple[Scene, Render]:
-        """(scene, real-time Render) of a compared row, re-rendered with one frame: rows keep metrics,
-        not images, and the image does not depend on how many frames were timed."""
-        sc = scenes.load(row.spec).with_overrides({**row.overrides, "realtime.timing_frames": 1,
-                                                   "realtime.warmup_frames": 0})
-        return sc, realtime.render(sc)
+    def scene_of(row: ResultRow) -> Scene:
+        """The scene of a compared row, with one timed frame (the image does not depend on how many)."""
+        return scenes.load(row.spec).with_overrides({**row.overrides, "realtime.timing_frames": 1,
+                                                     "realtime.warmup_frames": 0})
+
+    def image_of(self, row: ResultRow) -> tuple[Scene, Render]:
+        """(scene, real-time Render) of a compared row: the render the row kept (its measured.npz,
+        experiments.publish.images.load_measured), not rendered again. A row written before rows kept
+        it is rendered again with one frame."""
+        sc = self.scene_of(row)
+        kept = images.load_measured(self.out, row)
+        return sc, (kept.test if kept is not None else realtime.render(sc))
+
+    def error_of(self, row: ResultRow) -> tuple[Scene, np.ndarray, np.ndarray]:
+        """(scene, common mask, display error map) of a compared row: |realtime - reference| of the
+        display values, mean over RGB, as the row measured it (its measured.npz); recomputed from
+        `image_of` and the cached reference for a row written before rows kept it."""
+        kept = images.load_measured(self.out, row)
+        if kept is not None:
+            return self.scene_of(row), kept.mask, kept.error
+        sc, test = self.image_of(row)
+        ref = self.reference_of(sc)  # cached by the row
+        err = np.abs(metrics.display(sc, test.rgb) - metrics.display(sc, ref.rgb)).mean(-1)
+        return sc, metrics.common_mask(test.mask, ref.mask), err
 
     @staticmethod
     def reference_of(scene: Scene) -> Render:

@@ -12,7 +12,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from experiments.measure import metrics
 from experiments.paper.context import Context
 from experiments.publish import plots
 from experiments.publish.report import Section, f2, figure, md_table, paragraph, table
@@ -51,12 +50,9 @@ def run(context: Context, settings: Settings) -> Section:
     edges = np.linspace(0.0, 1.0, settings.bands + 1)
     for f0 in settings.f0s:
         r = context.row(SPEC, overrides(f0), "E3")
-        sc, test = context.image_of(r)
-        ref = context.reference_of(sc)  # cached by the row
-        mask = metrics.common_mask(test.mask, ref.mask)
+        sc, mask, err = context.error_of(r)  # as the row measured it: nothing rendered again
         hits = raycast.cast(sc, 1)
         cos_nv = np.clip((hits.normal * -hits.direction).sum(-1)[..., 0], 0, 1)
-        err = np.abs(metrics.display(sc, test.rgb) - metrics.display(sc, ref.rgb)).mean(-1)
         centres, rms = [], []
         for lo, hi in zip(edges[:-1], edges[1:], strict=True):
             sel = mask & (cos_nv >= lo) & (cos_nv < hi)

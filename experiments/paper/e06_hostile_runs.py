@@ -25,14 +25,13 @@ import groundtruth
 import realtime
 import scenes
 from experiments.measure import metrics
-from experiments.measure.comparison import format_table
 from experiments.measure.results import folder_lock
 from experiments.paper import e06_hostile_cases as hostile
 from experiments.paper.context import CommandLine
 from experiments.paper.e06_hostile_cases import error_of
 from experiments.publish import report
 from experiments.publish.outputs import slug
-from experiments.publish.text import visible
+from experiments.publish.text import comparison_table, visible
 from experiments.runs import gate, sweep
 from scenes.environment import envmap
 from scenes.geometry import meshes
@@ -98,7 +97,7 @@ class HostileCases:
             junit = f"parses, {len(names)} test cases"
         except ET.ParseError as exc:
             names, junit = [], f"does not parse ({exc})"
-        term = hostile.terminal_problems(gate.format_table(results) + format_table([{"scene": x}
+        term = hostile.terminal_problems(gate.format_table(results) + comparison_table([{"scene": x}
                                                                                   for x in hostile.HOSTILE_NAMES]))
         return [
             _row("escaping", f"{n} hostile names in scene, map and technique fields, section tables and the title "

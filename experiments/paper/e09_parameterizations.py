@@ -24,7 +24,6 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from experiments.measure import metrics
 from experiments.measure.results import ResultRow
 from experiments.paper.context import Context
 from experiments.publish import plots
@@ -240,10 +239,7 @@ def heat_maps(context: Context, s: Settings, budget_rows: dict, angle_rows: dict
         panels.append((f"sphere map captured {max(s.angles):g} deg away (s = {s.angle_budget})", back, same, True))
     out = {}
     for title, row, baseline, shown in panels:
-        sc, test = context.image_of(row)
-        ref = context.reference_of(sc)  # cached with the row
-        mask = metrics.common_mask(test.mask, ref.mask)
-        err = np.abs(metrics.display(sc, test.rgb) - metrics.display(sc, ref.rgb)).mean(-1)
+        sc, mask, err = context.error_of(row)  # as the row measured it: nothing rendered again
         hits = raycast.cast(sc, 1)
         n, v = hits.normal[..., 0, :], -hits.direction[..., 0, :]
         r = 2.0 * np.sum(n * v, -1, keepdims=True) * n - v

@@ -263,18 +263,19 @@ def test_a_worker_without_a_mitsuba_variant_is_reported(monkeypatch):
 
 
 def test_paper_suite_rows_on_the_cluster_equal_serial_rows(tmp_path, cache, monkeypatch, cluster):
-    from experiments.paper import suite as paper
+    from experiments.paper import e01_diffuse_sh as e1
+    from experiments.paper import e02_glossy_lod_bias as e2
+    from experiments.paper.context import Common, Context
 
-    tiny = paper.Settings(size=48, spp=32, frames=2, e1_faces=(8, 16), e2_faces=(16,), e2_biases=(0.0,),
-                          e4_faces=(8,), e5_spps=(16,))
-    serial = paper.Suite(tmp_path / "serial", tiny, lambda: None)
-    serial_e1 = serial.e1()
+    common, settings = Common(size=48, spp=32, frames=2), e1.Settings(faces=(8, 16))
+    serial = Context(tmp_path / "serial", common, lambda: None)
+    serial_e1 = e1.run(serial, settings)
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache-dask"))
-    suite = paper.Suite(tmp_path / "dask", tiny, lambda: None, cluster)
-    suite.prefetch(paper.reference_plan(tiny)[:2], quadratures=("builtin:sphere-diffuse",))
+    context = Context(tmp_path / "dask", common, lambda: None, cluster)
+    context.prefetch([(e1.SPEC, {}), e2.reference_plan()[0]], quadratures=(e1.SPEC,))
     assert len(list((tmp_path / "cache-dask").glob("*.npz"))) == 4  # prefetched: 2 references x 2 seeds
-    dask_e1 = suite.e1()
-    rows = [suite.done[i] for i in suite.used]
+    dask_e1 = e1.run(context, settings)
+    rows = [context.done[i] for i in context.used]
     assert [_stable(r) for r in rows] == [_stable(serial.done[i]) for i in serial.used]
     assert all(r.host and r.gl_renderer for r in rows)
     # the same table but for the times (filter and draw ms, the brute-force seconds measured on a worker)
