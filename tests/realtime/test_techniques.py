@@ -169,6 +169,6 @@ def test_owner_of_technique_keys():
     (16, 100.0, 4.0),  # level(16) = 4 is coarser than the lobe's 2.678
 ])
 def test_prefiltered_lod_by_hand(face, exponent, want):
-    from realtime import levels
+    from realtime.engine import levels
 
     assert levels.prefiltered_lod(face, 256, exponent) == pytest.approx(want, abs=1e-8)
