@@ -20,12 +20,6 @@ ENV_CUBE_UNIT = 1
 
 
 class BoxGlossy(Technique):
-    effect = "glossy"
-    name = "box"
-    simulates = frozenset({"glossy"})
-    timing_key = "filter"  # the chain is part of the paper's `filter`
-    reads = ("realtime.lod_bias", "realtime.lod_mapping")
-    axes = {"realtime.lod_bias": (-1.0, 0.0, 1.0, 2.0), "realtime.lod_mapping": ("paper", "mcguire")}
 
     def chain_level(self, frame: Frame) -> int | None:
         return None  # the LOD may read any level

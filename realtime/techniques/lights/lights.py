@@ -100,10 +100,6 @@ def shared_array(frame: Frame) -> LightArrayGpu:
 class _LightsLobe(Technique):
     """What the diffuse and the glossy lobe of the light array share."""
 
-    simulates: frozenset[str]
-    timing_key = "lights"
-    reads = ("realtime.lights.count", "realtime.lights.placement")
-    axes = {"realtime.lights.count": (4, 12, 42, 162, 642), "realtime.lights.placement": ("geodesic",)}
 
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
@@ -133,18 +129,12 @@ class _LightsLobe(Technique):
 
 
 class DiffuseLights(_LightsLobe):
-    effect = "diffuse"
-    name = "lights"
-    simulates = frozenset({"diffuse"})
 
     def defines(self) -> tuple[str, ...]:
         return ("DIFFUSE_LIGHTS",)
 
 
 class GlossyLights(_LightsLobe):
-    effect = "glossy"
-    name = "lights"
-    simulates = frozenset({"glossy"})
 
     def defines(self) -> tuple[str, ...]:
         return ("GLOSSY_LIGHTS",)

@@ -61,16 +61,6 @@ def light_matrices(directions: np.ndarray, centre: np.ndarray, radius: float) ->
 
 
 class ShadowMaps(Technique):
-    effect = "occlusion"
-    name = "shadow_maps"
-    simulates = frozenset({"occlusion"})
-    timing_key = "shadow"
-    reads = ("realtime.lights.shadow_map_size",)
-    axes = {"realtime.lights.shadow_map_size": (256, 1024)}
-
-    @classmethod
-    def covers(cls, lobe: str, scene) -> bool:
-        return getattr(scene.realtime, lobe) == "lights"  # it shadows the light array only
 
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)

@@ -347,8 +347,6 @@ def shared_voxels(frame: Frame) -> VoxelScene:
 class _VctEffect(Technique):
     """What `occlusion = "vct"` and `interreflection = "vct"` share: the voxel scene, its per-frame update."""
 
-    timing_key = "voxelize"
-    extra_timing_keys = ("mip",)
 
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
@@ -387,12 +385,6 @@ class _VctEffect(Technique):
 class VctOcclusion(_VctEffect):
     """`occlusion = "vct"`: the environment's diffuse and glossy light times the cones' visibility."""
 
-    effect = "occlusion"
-    name = "vct"
-    simulates = frozenset({"occlusion"})
-    reads = ("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones", "realtime.vct.step")
-    axes = {"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
-            "realtime.vct.diffuse_cones": (4, 6, 9)}
 
     def defines(self) -> tuple[str, ...]:
         return ("VCT_OCCLUSION",)
@@ -401,9 +393,6 @@ class VctOcclusion(_VctEffect):
 class VctInterreflection(_VctEffect):
     """`interreflection = "vct"`: plus the one-bounce radiance the same cones gather from the voxels."""
 
-    effect = "interreflection"
-    name = "vct"
-    simulates = frozenset({"interreflection"})
 
     def defines(self) -> tuple[str, ...]:
         return ("VCT_INTERREFLECTION",)
