@@ -22,8 +22,9 @@ name, so that a scene choosing a plugin that failed to load is told why.
 
 Declarations are loaded once per process, builtins (the `iblcheck` distribution) first by their `rank`
 (the order of the choices in the scene format), then plugins sorted by entry-point name. A plugin that
-cannot be imported or whose declaration is wrong is left out with its one-line error (`broken()`); the builtins still work, and a
-scene that chooses it gets that error (`PluginLoadError`, exit 3, or `PluginDeclarationError`, exit 2).
+cannot be imported or whose declaration is wrong is left out with its one-line error (`broken()`); the
+builtins still work, and a scene that chooses it gets that error (`PluginLoadError`, exit 3, or
+`PluginDeclarationError`, exit 2).
 This module imports no technique statically (scenes may not import realtime).
 """
 
