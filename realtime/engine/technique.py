@@ -32,7 +32,7 @@ from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, Declaration
 if TYPE_CHECKING:  # the interface is importable without OpenGL; only the techniques' modules need it
     import moderngl
 
-__all__ = ["EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "choose", "declaration_of", "describe",
+__all__ = ["EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "build", "choose", "declaration_of", "describe",
            "needed", "owner_of", "pairs", "simulated_effects", "unsimulated_effects"]
 
 #: `chain_level` of a technique that reads neither the cube map nor its chain (e.g. the light array)
@@ -142,13 +142,15 @@ def needed(scene) -> list[tuple[str, str]]:
 
 def choose(scene, frame: Frame) -> list[Technique]:
     """The techniques of a scene, constructed (not yet prepared)."""
-    out = []
-    for key, value in needed(scene):
-        decl = declaration_of(key, value)
-        technique = decl.load()(frame)
-        technique.declaration = decl
-        out.append(technique)
-    return out
+    return [build(key, value, frame) for key, value in needed(scene)]
+
+
+def build(effect: str, value: str, frame: Frame) -> Technique:
+    """The technique of `realtime.<effect> = "<value>"`, constructed with its declaration."""
+    decl = declaration_of(effect, value)
+    technique = decl.load()(frame)
+    technique.declaration = decl
+    return technique
 
 
 def simulated_effects(scene) -> frozenset[str]:

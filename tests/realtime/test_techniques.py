@@ -1,4 +1,4 @@
-"""The technique interface (design.md section 9, issue 10): scene keys, refusals, composition."""
+"""The technique interface (docs/design.md section 9): scene keys, refusals, composition."""
 
 from __future__ import annotations
 
@@ -64,7 +64,7 @@ def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
     ({"realtime.diffuse": "irradiance_map", "realtime.base_size": 64, "realtime.face_size": 16,
       "realtime.irradiance_map.source_size": 128},
      ["realtime.irradiance_map.source_size", "realtime.base_size"]),
-    # the light array and precomputed transfer (issue 12)
+    # the light array and precomputed transfer
     ({"realtime.diffuse": "lights", "realtime.lights.count": 40}, ["realtime.lights.count", "42, 66"]),
     ({"realtime.diffuse": "lights", "realtime.lights.placement": "median_cut", "realtime.lights.count": 42},
      ["realtime.lights.count", "realtime.lights.placement", "power of two"]),
@@ -144,7 +144,7 @@ def test_a_technique_that_reaches_one_lobe_names_the_other(spec, overrides, miss
 
 
 def test_only_the_scenes_effects_get_techniques():
-    # a diffuse technique chosen for a scene without diffuse is not run (design.md section 4)
+    # a diffuse technique chosen for a scene without diffuse is not run (docs/design.md section 4)
     s = scenes.load("builtin:sphere-phong").with_overrides({"realtime.diffuse": "irradiance_map"})
     assert technique.needed(s) == [("glossy", "box")]
     s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.glossy": "prefiltered"})

@@ -41,7 +41,7 @@ class LightArrayGpu:
         self.row_omega = ctx.buffer(equirect_solid_angles(h, w)[:, 0].astype("f4").tobytes())
         self.powers = ctx.buffer(reserve=count * 16)
         self.directions = ctx.buffer(reserve=count * 16)
-        self.prog = ctx.compute_shader(shader_source("light_power.comp"))
+        self.prog = ctx.compute_shader(shader_source("light_power.comp", package=__package__))
         self.updated_frame: int | None = None
         self.world_directions = self.array.directions
         self.map_integral = light_array.map_integral(env)

@@ -91,8 +91,8 @@ class ShadowMaps(Technique):
         self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)  # bilinear PCF of the compare results
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
-        self.prog = ctx.program(vertex_shader=shader_source("shadow_depth.vert"),
-                                fragment_shader=shader_source("depth_only.frag"))
+        self.prog = ctx.program(vertex_shader=shader_source("shadow_depth.vert", package=__package__),
+                                fragment_shader=shader_source("depth_only.frag", package=__package__))
         self.matrices = ctx.buffer(reserve=self.count * 64)
         for obj in frame.scene.objects:
             vbo = ctx.buffer(obj.mesh.positions.astype("f4").tobytes())
