@@ -370,8 +370,16 @@ class _Schema(Mapping):
     techniques declare them (the choices of each effect key, their flat keys, their tables), gathered
     on first use (scenes/model/technique_registry.py)."""
 
-    @cached_property
+    _built: tuple[object, dict[str, dict[str, tuple]]] | None = None  # (the registry it was built from, schema)
+
+    @property
     def _full(self) -> dict[str, dict[str, tuple]]:
+        registry = technique_registry.registry()
+        if self._built is None or self._built[0] is not registry:
+            self._built = (registry, self._build())
+        return self._built[1]
+
+    def _build(self) -> dict[str, dict[str, tuple]]:
         out = {k: dict(v) for k, v in _SCENE_SCHEMA.items()}
         rt = out["realtime"]
         for effect in technique_registry.EFFECT_KEYS:
