@@ -40,6 +40,9 @@ MAX_SCENE_BYTES = 16 << 20
 MAX_DEPTH = 16
 #: the most pixels an image may have (8192 x 8192): both renderers hold several float32 copies of it
 MAX_PIXELS = 1 << 26
+#: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB;
+#: realtime.occlusion = "shadow_maps" refuses more)
+MAX_SHADOW_TEXELS = 1 << 28
 
 
 # --------------------------------------------------------------------------- dataclasses

@@ -38,7 +38,7 @@ from functools import cache
 from importlib import metadata
 from typing import Any
 
-from scenes.storage.errors import PluginDeclarationError, PluginError, PluginLoadError, SceneError
+from scenes.storage.errors import MissingCapability, PluginDeclarationError, PluginError, PluginLoadError, SceneError
 
 GROUP = "iblcheck.techniques"
 #: the distribution whose techniques are builtins
@@ -275,6 +275,10 @@ def registry() -> Registry:
             broken.append(Broken(dist, ep.name, exc))
             continue
         out.extend(decls)
+    if not any(d.builtin for d in out):
+        raise MissingCapability(f"no builtin technique is registered in the entry-point group {GROUP}: the "
+                                "installed iblcheck metadata is older than its pyproject.toml",
+                                hint="reinstall iblcheck (pip install -e .)")
     builtins = sorted((d for d in out if d.builtin), key=lambda d: (d.rank, EFFECT_KEYS.index(d.effect)))
     return Registry((*builtins, *(d for d in out if not d.builtin)), tuple(broken))
 

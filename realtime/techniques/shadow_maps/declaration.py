@@ -4,11 +4,9 @@ table ([realtime.lights] shadow_map_size) and shadows only the lobes the light a
 
 from __future__ import annotations
 
+from scenes.model.scene import MAX_SHADOW_TEXELS
 from scenes.model.technique_registry import Declaration, combination_error
 from scenes.storage.errors import SceneError
-
-#: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB)
-MAX_SHADOW_TEXELS = 1 << 28
 
 
 def validate(rt, given: dict, where: str) -> None:
