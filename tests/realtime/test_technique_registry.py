@@ -160,3 +160,27 @@ def test_prt_settings_are_derived_once():
                                                    "realtime.prt.rays": 64}))
     assert (full.order, full.rays, full.bounces, full.shadowed, full.rays_reported) == (2, 64, 2, True, 64)
     assert reg.lookup("occlusion", "prt").effective_settings is effective_settings
+
+
+@dataclass(frozen=True)
+class GlowKeys:
+    glow_gain: int = reg.param(1, reg.number(1, 8, integer=True))
+
+
+def test_a_plugins_flat_key_is_read_only_where_it_is_chosen(plugins):
+    plugins(FakeEntryPoint("glow", "glow-plugin", dataclasses.replace(GLOW, flat=GlowKeys)))
+    base = scene_model.load("builtin:sphere-diffuse")
+    s = base.with_overrides({"realtime.diffuse": "glow", "realtime.glow_gain": 3})
+    assert s.realtime.glow_gain == 3 and s.to_dict()["realtime"]["glow_gain"] == 3
+    assert "glow_gain" not in base.to_dict()["realtime"]
+    with pytest.raises(AttributeError):
+        base.realtime.glow_gain  # noqa: B018
+    with pytest.raises(SceneError, match=r'realtime\.glow_gain: this key is not read .* realtime\.diffuse = "glow"'):
+        base.with_overrides({"realtime.glow_gain": 3})
+    # a name clash of flat keys with a builtin's is a bad declaration (negative control of the above)
+    @dataclass(frozen=True)
+    class Clash:
+        sh_order: int = reg.param(2, reg.number(2, 4, integer=True))
+
+    plugins(FakeEntryPoint("glow", "glow-plugin", dataclasses.replace(GLOW, flat=Clash)))
+    assert "realtime.sh_order is already declared by 'iblcheck'" in str(reg.broken()[0].error)

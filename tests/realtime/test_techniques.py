@@ -21,12 +21,14 @@ def choices(key: str) -> list[str]:
 @pytest.mark.parametrize("key", CHOICE_KEYS)
 def test_every_choice_is_a_technique_or_refused_as_not_implemented(key):
     for value in choices(key):
-        implemented = ((key, value) in technique.REGISTRY or value == "none"
+        implemented = ((key, value) in technique.pairs() or value == "none"
                        or (key == "parameterization" and value in STORES))
         assert implemented != ((key, value) in NOT_IMPLEMENTED), (key, value)
-        if implemented and (key, value) in technique.REGISTRY:
-            cls = technique.technique_class(key, value)
-            assert cls.effect == key and cls.name == value and key in cls.simulates
+        if implemented and (key, value) in technique.pairs():
+            decl = technique.declaration_of(key, value)
+            assert decl.effect == key and decl.name == value and key in decl.simulates
+            cls = decl.load()  # its OpenGL class exists and is a Technique
+            assert issubclass(cls, technique.Technique)
 
 
 def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
