@@ -20,7 +20,6 @@ ENV_CUBE_UNIT = 1
 
 
 class BoxGlossy(Technique):
-
     def chain_level(self, frame: Frame) -> int | None:
         return None  # the LOD may read any level
 

@@ -19,7 +19,6 @@ IRRADIANCE_UNIT = 2
 
 
 class IrradianceMapDiffuse(Technique):
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         params = frame.scene.realtime.irradiance_map

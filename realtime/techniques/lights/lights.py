@@ -100,7 +100,6 @@ def shared_array(frame: Frame) -> LightArrayGpu:
 class _LightsLobe(Technique):
     """What the diffuse and the glossy lobe of the light array share."""
 
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.gpu: LightArrayGpu | None = None
@@ -129,13 +128,11 @@ class _LightsLobe(Technique):
 
 
 class DiffuseLights(_LightsLobe):
-
     def defines(self) -> tuple[str, ...]:
         return ("DIFFUSE_LIGHTS",)
 
 
 class GlossyLights(_LightsLobe):
-
     def defines(self) -> tuple[str, ...]:
         return ("GLOSSY_LIGHTS",)
 

@@ -25,7 +25,6 @@ PREFILTERED_UNIT = 3
 
 
 class PrefilteredGlossy(Technique):
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         rt = frame.scene.realtime

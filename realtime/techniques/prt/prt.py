@@ -41,7 +41,6 @@ def transfer_objects(scene) -> list:
 
 
 class PrtDiffuse(Technique):
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.settings = effective_settings(frame.scene)
@@ -100,11 +99,9 @@ class PrtDiffuse(Technique):
 class PrtOcclusion(Technique):
     """`occlusion = "prt"`: the visibility lives in PrtDiffuse's transfer; this marks the effect."""
 
-
     def chain_level(self, frame: Frame) -> int | None:
         return NO_CUBE  # the transfer is read by PrtDiffuse, which reads the cube
 
 
 class PrtInterreflection(PrtOcclusion):
     """`interreflection = "prt"`: the bounces live in PrtDiffuse's transfer; this marks the effect."""
-

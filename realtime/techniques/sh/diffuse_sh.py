@@ -19,7 +19,6 @@ from scenes.environment import shbasis
 
 
 class ShDiffuse(Technique):
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.order = frame.scene.realtime.sh_order

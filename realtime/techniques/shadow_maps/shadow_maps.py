@@ -61,7 +61,6 @@ def light_matrices(directions: np.ndarray, centre: np.ndarray, radius: float) ->
 
 
 class ShadowMaps(Technique):
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         rt = frame.scene.realtime

@@ -348,7 +348,6 @@ def shared_voxels(frame: Frame) -> VoxelScene:
 class _VctEffect(Technique):
     """What `occlusion = "vct"` and `interreflection = "vct"` share: the voxel scene, its per-frame update."""
 
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.voxels: VoxelScene | None = None
@@ -386,14 +385,12 @@ class _VctEffect(Technique):
 class VctOcclusion(_VctEffect):
     """`occlusion = "vct"`: the environment's diffuse and glossy light times the cones' visibility."""
 
-
     def defines(self) -> tuple[str, ...]:
         return ("VCT_OCCLUSION",)
 
 
 class VctInterreflection(_VctEffect):
     """`interreflection = "vct"`: plus the one-bounce radiance the same cones gather from the voxels."""
-
 
     def defines(self) -> tuple[str, ...]:
         return ("VCT_INTERREFLECTION",)
