@@ -1,13 +1,15 @@
-"""Real-time environment lighting in moderngl: the paper's method (Gu et al. 2006, design.md
-section 3) and the techniques it is measured against (design.md section 9).
+"""Real-time environment lighting in moderngl: the paper's method (Gu et al. 2006, docs/design.md
+section 3) and the techniques it is measured against (docs/architecture.md).
 
     realtime.render(scene) -> Render
 
 The default techniques are the paper's: cube map with a 2x2 box mip chain, SH9 irradiance
 `n^T M n` (`realtime/techniques/sh/diffuse_sh.py`) and the glossy lookup at a LOD
 (`realtime/techniques/box/glossy_box.py`).
-`realtime/engine/technique.py` is the interface and registry, `realtime/engine/frame.py` composes a frame and
-times it, `realtime/engine/gpu.py` holds the shared environment filter and the shading pass.
+`realtime/engine/technique.py` is the interface (techniques are found through their declarations,
+scenes/model/technique_registry.py), `realtime/engine/frame.py` composes a frame and times it,
+`realtime/engine/gpu.py` holds the shared environment filter and assembles the shading pass from the
+chosen techniques' GLSL.
 """
 
 from __future__ import annotations

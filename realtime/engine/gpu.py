@@ -25,25 +25,86 @@ from realtime.engine import levels
 from scenes.environment import cubemap, shbasis
 from scenes.environment.directions import direction_to_uv, rotation_y
 from scenes.model import materials
+from scenes.storage.errors import PluginLoadError
 
 _INCLUDE = re.compile(r'^#include "([\w.]+)"\s*$', re.M)
+#: the package whose shaders/ folder holds the engine's GLSL (a technique's GLSL lives in its own package)
+ENGINE = "realtime"
+#: the marker lines of shade.vert and shade.frag that the chosen techniques' GLSL and entry calls replace
+TECHNIQUES_MARK = "// @techniques\n"
+SHADE_ENTRIES_MARK = "    // @shade entries\n"
+VERTEX_ENTRIES_MARK = "    // @vertex entries\n"
+#: the effect keys in the order their GLSL goes into the shading pass: visibility first (the light
+#: array's lobes call the shadow maps' light_visibility), then the lobes
+GLSL_ORDER = ("occlusion", "interreflection", "diffuse", "glossy")
 
 
 @cache
-def shader_text(name: str) -> str:
-    return resources.files("realtime").joinpath(f"shaders/{name}").read_text()
+def shader_text(name: str, package: str | None = None) -> str:
+    """A GLSL file's text: in `package`'s folder (a technique's own), else the engine's realtime/shaders/."""
+    if package is not None:
+        own = resources.files(package).joinpath(name)
+        if own.is_file():
+            return own.read_text()
+    return resources.files(ENGINE).joinpath(f"shaders/{name}").read_text()
 
 
-def shader_source(name: str, defines: tuple[str, ...] = ()) -> str:
-    """A shader's text with `#include "file"` expanded (recursively) and `#define`s inserted after
-    #version. A define is "NAME" or "NAME VALUE"."""
-    text = shader_text(name)
+def expand_includes(text: str, package: str | None = None) -> str:
+    """`#include "file"` replaced by the file (recursively), looked up as `shader_text` does."""
     for _ in range(8):  # includes nest a few levels at most
-        text, n = _INCLUDE.subn(lambda m: shader_text(m.group(1)), text)
+        text, n = _INCLUDE.subn(lambda m: shader_text(m.group(1), package), text)
         if not n:
             break
+    return text
+
+
+def with_defines(text: str, defines: tuple[str, ...]) -> str:
+    """`#define`s inserted after #version. A define is "NAME" or "NAME VALUE"."""
     head, _, rest = text.partition("\n")
     return head + "\n" + "".join(f"#define {d}\n" for d in defines) + rest
+
+
+def shader_source(name: str, defines: tuple[str, ...] = (), package: str | None = None) -> str:
+    """A shader's text (in `package`, a technique's, or the engine's folder) with its includes expanded and
+    `defines` inserted."""
+    return with_defines(expand_includes(shader_text(name, package), package), defines)
+
+
+def shading_sources(declarations, defines: tuple[str, ...]) -> tuple[str, str]:
+    """(shade.vert, shade.frag) for the chosen techniques' declarations: each file of their
+    `vertex_glsl` / `fragment_glsl` once (two choices of one package share theirs), visibility first
+    (GLSL_ORDER), and a call of each `vertex_entry` / `shade_entry` at its marker."""
+    ordered = sorted(declarations, key=lambda d: GLSL_ORDER.index(d.effect))
+
+    def files(attr: str) -> str:
+        seen = dict.fromkeys((d.package, name) for d in ordered for name in getattr(d, attr))
+        return "".join(expand_includes(shader_text(name, package), package) for package, name in seen)
+
+    def calls(attr: str, args: str) -> str:
+        names = dict.fromkeys(getattr(d, attr) for d in ordered if getattr(d, attr))
+        return "".join(f"    {name}({args});\n" for name in names)
+
+    vert = expand_includes(shader_text("shade.vert"))
+    vert = vert.replace(TECHNIQUES_MARK, files("vertex_glsl")).replace(VERTEX_ENTRIES_MARK, calls("vertex_entry", ""))
+    frag = expand_includes(shader_text("shade.frag"))
+    frag = frag.replace(TECHNIQUES_MARK, files("fragment_glsl"))
+    frag = frag.replace(SHADE_ENTRIES_MARK, calls("shade_entry", "n, v, Ld, Lg"))
+    return with_defines(vert, defines), with_defines(frag, defines)
+
+
+def compile_shading(ctx: moderngl.Context, declarations, defines: tuple[str, ...]) -> moderngl.Program:
+    """The shading pass's program. A plugin's GLSL that does not compile is the plugin's error (one line
+    naming it, PluginLoadError); a builtin's is a bug and raised as it is."""
+    vert, frag = shading_sources(declarations, defines)
+    try:
+        return ctx.program(vertex_shader=vert, fragment_shader=frag)
+    except moderngl.Error as exc:
+        plugins = [d for d in declarations if not d.builtin]
+        if not plugins:
+            raise
+        log = next((line.strip() for line in str(exc).splitlines() if "error" in line.lower()), str(exc))
+        raise PluginLoadError(f"{' and '.join(d.label for d in plugins)}: its GLSL does not compile in the "
+                              f"shading pass: {' '.join(log.split())}") from None
 
 
 def mat_bytes(m: np.ndarray) -> bytes:
@@ -220,8 +281,7 @@ class SceneDrawer:
         per_vertex = scene.realtime.reflection == "per_vertex" and "glossy" in scene.effects
         reflection = ("REFLECTION_PER_VERTEX",) if per_vertex else ()
         self.defines = effects + extra + reflection + materials.glsl_defines()
-        self.prog = ctx.program(vertex_shader=shader_source("shade.vert", self.defines),
-                                fragment_shader=shader_source("shade.frag", self.defines))
+        self.prog = compile_shading(ctx, [t.declaration for t in self.techniques], self.defines)
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))
         self.bg_vao = ctx.vertex_array(self.bg_prog, [])

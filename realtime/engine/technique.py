@@ -1,50 +1,40 @@
-"""The technique interface (design.md section 9): one small life cycle per real-time technique.
+"""The technique interface: one small life cycle per real-time technique (docs/architecture.md).
 
-A technique simulates one effect of a scene (`diffuse`, `glossy`, later `occlusion`, ...) and is
-chosen by a `[realtime]` key (`realtime.diffuse = "sh"`, `realtime.glossy = "prefiltered"`, ...):
+A technique simulates one effect of a scene (`diffuse`, `glossy`, `occlusion`, `interreflection`) and is
+chosen by a `[realtime]` key (`realtime.diffuse = "sh"`, `realtime.glossy = "prefiltered"`, ...). What it
+is (its choice, what it simulates, its parameters and rules, its timing keys, its GLSL, what it reports)
+is declared as data in its package (scenes/model/technique_registry.py, `Declaration`) and found through
+the entry-point group `iblcheck.techniques`, builtins and plugins alike. Its OpenGL half, a `Technique`
+subclass named by the declaration, runs it:
 
     prepare(frame)      once per scene: precomputation, timed apart as `precompute`
-    update(frame)       every frame: timed under the technique's own `timing_key`
-    defines()           the #defines it adds to the shading pass (shade.frag includes its GLSL)
+    update(frame)       every frame: timed under the declaration's `timing_key`
+    defines()           the #defines it adds to the shading pass (which includes its declared GLSL)
     bind(prog)          per frame, before the objects are drawn: textures, buffers, uniforms
     bind_object(prog, obj)   per object (e.g. the glossy LOD of that object's exponent)
     meta()              what it reports in Render.meta["techniques"]
     release()
 
 `realtime.engine.frame.render` composes a frame from the techniques `choose(scene)` returns: only those for
-the scene's effects are prepared, updated and compiled in (design.md section 4). The environment's
-cube map and its 2x2 box chain (realtime.engine.gpu.EnvironmentFilter) are shared by every technique;
-each says how much of the chain it reads (`chain_level`), so the paper's diffuse-only frame still
-stops the chain at the selected level.
+the scene's effects are prepared, updated and compiled in. The environment's cube map and its 2x2 box
+chain (realtime.engine.gpu.EnvironmentFilter) are shared by every technique; each says how much of the
+chain it reads (`chain_level`), so the paper's diffuse-only frame still stops the chain at the selected level.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from importlib import import_module
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any
 
-import moderngl
+from scenes.model import technique_registry
+from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, Declaration
 
-#: (effect key, value) -> "module:Class" of the technique (imported on use)
-REGISTRY: dict[tuple[str, str], str] = {
-    ("diffuse", "sh"): "realtime.techniques.sh.diffuse_sh:ShDiffuse",
-    ("diffuse", "irradiance_map"): "realtime.techniques.irradiance_map.diffuse_irradiance_map:IrradianceMapDiffuse",
-    ("glossy", "box"): "realtime.techniques.box.glossy_box:BoxGlossy",
-    ("glossy", "prefiltered"): "realtime.techniques.prefiltered.glossy_prefiltered:PrefilteredGlossy",
-    ("diffuse", "lights"): "realtime.techniques.lights.lights:DiffuseLights",
-    ("glossy", "lights"): "realtime.techniques.lights.lights:GlossyLights",
-    ("occlusion", "shadow_maps"): "realtime.techniques.shadow_maps.shadow_maps:ShadowMaps",
-    ("diffuse", "prt"): "realtime.techniques.prt.prt:PrtDiffuse",
-    ("occlusion", "prt"): "realtime.techniques.prt.prt:PrtOcclusion",
-    ("interreflection", "prt"): "realtime.techniques.prt.prt:PrtInterreflection",
-    ("occlusion", "vct"): "realtime.techniques.vct.vct:VctOcclusion",
-    ("interreflection", "vct"): "realtime.techniques.vct.vct:VctInterreflection",
-}
-#: the scene keys that choose a technique, in the order frames run them
-EFFECT_KEYS = ("diffuse", "glossy", "occlusion", "interreflection")
-#: `none` choices: the effect is ignored (the paper ignores occlusion and interreflection)
-NOTHING = "none"
+if TYPE_CHECKING:  # the interface is importable without OpenGL; only the techniques' modules need it
+    import moderngl
+
+__all__ = ["EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "build", "choose", "declaration_of", "describe",
+           "needed", "owner_of", "pairs", "simulated_effects", "unsimulated_effects"]
+
 #: `chain_level` of a technique that reads neither the cube map nor its chain (e.g. the light array)
 NO_CUBE = -1
 
@@ -65,29 +55,21 @@ class Frame:
 
 
 class Technique:
-    """Base class: a technique that needs nothing per frame (override what applies)."""
+    """Base class: a technique that needs nothing per frame (override what applies). What it is chosen by,
+    simulates and reads is its declaration's (`self.declaration`, set by `choose`)."""
 
-    effect: ClassVar[str]  # the scene key that chooses it: "diffuse", "glossy", ...
-    name: ClassVar[str]  # its value of that key: "sh", "box", ...
-    simulates: ClassVar[frozenset[str]]  # the scene effects it simulates
-    timing_key: ClassVar[str] = "filter"  # its per-frame key in Render.timings
-    #: keys of parts of its update it times itself (split_timings), reported apart from timing_key
-    extra_timing_keys: ClassVar[tuple[str, ...]] = ()
-    #: the scene keys only this technique reads ("realtime.table." covers a whole table): a sweep
-    #: varies them only where the technique runs (experiments/runs/sweep.py)
-    reads: ClassVar[tuple[str, ...]] = ()
-    #: of those, the axes worth sweeping, with values that show the trade-off (`iblcheck sweep
-    #: --technique-axes` sweeps them, with the technique choices of the scene's effects)
-    axes: ClassVar[dict[str, tuple]] = {}
+    declaration: Declaration
+
+    @property
+    def timing_key(self) -> str:
+        return self.declaration.timing_key
+
+    @property
+    def extra_timing_keys(self) -> tuple[str, ...]:
+        return self.declaration.extra_timing_keys
 
     def __init__(self, frame: Frame) -> None:
         self.frame = frame
-
-    @classmethod
-    def covers(cls, lobe: str, scene) -> bool:
-        """For an occlusion or interreflection technique: whether it reaches this lobe's light
-        ("diffuse" or "glossy") with the scene's other choices (e.g. PRT shadows diffuse light only)."""
-        return True
 
     def chain_level(self, frame: Frame) -> int | None:
         """The coarsest level of the environment's box chain it reads (None: the whole chain; NO_CUBE:
@@ -127,17 +109,22 @@ def set_uniform(prog: moderngl.Program, name: str, value) -> None:
         prog[name] = value
 
 
-def technique_class(effect: str, value: str) -> type[Technique]:
-    module, _, cls = REGISTRY[(effect, value)].partition(":")
-    return getattr(import_module(module), cls)
+def pairs() -> list[tuple[str, str]]:
+    """Every registered (effect key, value), builtins first."""
+    return [(d.effect, d.name) for d in technique_registry.declarations()]
+
+
+def declaration_of(effect: str, value: str) -> Declaration:
+    """The declaration of `realtime.<effect> = "<value>"`: its `simulates`, `reads`, `axes`, `ladder`, ..."""
+    return technique_registry.lookup(effect, value)
 
 
 def owner_of(key: str) -> tuple[str, str] | None:
     """The (effect key, value) of the technique that alone reads scene `key`, or None."""
-    for pair in REGISTRY:
-        for k in technique_class(*pair).reads:
+    for d in technique_registry.declarations():
+        for k in d.reads:
             if key == k or (k.endswith(".") and key.startswith(k)):
-                return pair
+                return d.effect, d.name
     return None
 
 
@@ -155,32 +142,41 @@ def needed(scene) -> list[tuple[str, str]]:
 
 def choose(scene, frame: Frame) -> list[Technique]:
     """The techniques of a scene, constructed (not yet prepared)."""
-    return [technique_class(key, value)(frame) for key, value in needed(scene)]
+    return [build(key, value, frame) for key, value in needed(scene)]
+
+
+def build(effect: str, value: str, frame: Frame) -> Technique:
+    """The technique of `realtime.<effect> = "<value>"`, constructed with its declaration."""
+    decl = declaration_of(effect, value)
+    technique = decl.load()(frame)
+    technique.declaration = decl
+    return technique
 
 
 def simulated_effects(scene) -> frozenset[str]:
     """The effects the scene's chosen techniques simulate (Fresnel is the shading pass's own)."""
     out = {"fresnel"}
     for key, value in needed(scene):
-        out |= technique_class(key, value).simulates
+        out |= declaration_of(key, value).simulates
     return frozenset(out)
 
 
 def unsimulated_effects(scene) -> list[str]:
-    """Effects the scene calls for that its techniques do not simulate (design.md section 9): a low
-    PSNR there is a missing effect, not a bug. An occlusion or interreflection technique that reaches
-    only one lobe adds the other as e.g. "glossy occlusion" (PRT shadows the diffuse light only)."""
+    """Effects the scene calls for that its techniques do not simulate: a low PSNR there is a missing
+    effect, not a bug. A technique that reaches only one lobe (its declaration's `covers`) adds the other
+    as e.g. "glossy occlusion" (PRT shadows the diffuse light only)."""
     missing = sorted(scene.effects - simulated_effects(scene))
     for key, value in needed(scene):
-        if key in ("occlusion", "interreflection"):
-            cls = technique_class(key, value)
+        covers = declaration_of(key, value).covers
+        if covers is not None:
             missing += [f"{lobe} {key}" for lobe in ("diffuse", "glossy")
-                        if lobe in scene.effects and not cls.covers(lobe, scene)]
+                        if lobe in scene.effects and not covers(lobe, scene.realtime)]
     return missing
 
 
 def describe(scene) -> dict[str, Any]:
-    """The techniques and their parameters as a plain dict (render meta, result rows)."""
+    """The techniques and their parameters as a plain dict (render meta, result rows): the engine's
+    settings, the choices, then what each chosen technique's declaration describes."""
     rt = scene.realtime
     out: dict[str, Any] = {"parameterization": rt.parameterization, "face_size": rt.face_size,
                            "base_size": rt.base_size}
@@ -190,24 +186,18 @@ def describe(scene) -> dict[str, Any]:
     out["reflection"] = rt.reflection
     for key, value in chosen(scene).items():
         out[key] = value
-    if rt.diffuse == "sh":
-        out["sh_order"], out["sh_window"] = rt.sh_order, rt.sh_window
-    if rt.diffuse == "irradiance_map":
-        out["irradiance_map"] = vars(rt.irradiance_map).copy()
-    if rt.glossy == "box":
-        out["lod_bias"], out["lod_mapping"] = rt.lod_bias, rt.lod_mapping
-    if rt.glossy == "prefiltered":
-        out["prefiltered"] = vars(rt.prefiltered).copy()
-    if "lights" in (rt.diffuse, rt.glossy):
-        lights = vars(rt.lights).copy()
-        if rt.occlusion != "shadow_maps":
-            lights.pop("shadow_map_size")
-        out["lights"] = lights
-    if "vct" in (rt.occlusion, rt.interreflection):
-        out["vct"] = vars(rt.vct).copy()
-    if rt.diffuse == "prt":
-        prt = vars(rt.prt).copy()
-        if rt.occlusion != "prt":
-            prt.pop("rays")
-        out["prt"] = prt
+    for decl in technique_registry.chosen(rt):
+        if decl.describe is not None:
+            out.update(decl.describe(rt))
     return out
+
+
+def __getattr__(name: str) -> Any:
+    """Names experiments/ still reads from before the registry: REGISTRY ({(effect, value): "module:Class"},
+    now derived from the declarations) and technique_class (now the declaration, which has the class's
+    old `simulates`, `reads`, `axes`)."""
+    if name == "REGISTRY":
+        return {(d.effect, d.name): d.implementation for d in technique_registry.declarations()}
+    if name == "technique_class":
+        return declaration_of
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,9 +1,8 @@
 #version 430
-// The shading pass: the paper's reflectance (design.md section 3) with the diffuse irradiance and
-// the glossy radiance of the scene's techniques (design.md section 9). The host #defines the
-// scene's effects (HAS_DIFFUSE, HAS_GLOSSY, HAS_FRESNEL), one DIFFUSE_* and one GLOSSY_* technique
-// (each included file below compiles only under its own define) and the MATERIAL_* codes of
-// scenes/materials.py.
+// The shading pass: the paper's reflectance (docs/design.md) with the diffuse irradiance and the
+// glossy radiance of the scene's techniques (docs/architecture.md). The host #defines the scene's
+// effects (HAS_DIFFUSE, HAS_GLOSSY, HAS_FRESNEL), each technique's own defines (DIFFUSE_SH9, ...) and
+// the MATERIAL_* codes of scenes/model/materials.py.
 in vec3 v_position;
 in vec3 v_normal;
 #ifdef REFLECTION_PER_VERTEX
@@ -21,19 +20,11 @@ const float PI = 3.14159265358979323846;
 // argument (the light array's horizon, the shadow maps' normal offset); set first thing in main()
 vec3 shading_normal;
 
-// vec3 diffuse_irradiance(vec3 n): E(n), the cosine-weighted integral of the environment
-#include "diffuse_sh9.glsl"
-#include "diffuse_sh_n.glsl"
-#include "diffuse_irradiance_map.glsl"
-#include "diffuse_prt.glsl"
-// float light_visibility(int i), then both lobes of the light array
-#include "shadow_maps.glsl"
-#include "lights.glsl"
-// vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
-#include "glossy_box.glsl"
-#include "glossy_prefiltered.glsl"
-// void vct_shade(n, v, Ld, Lg): voxel cone tracing's visibility and gathered bounce (realtime/vct.py)
-#include "vct.glsl"
+// The chosen techniques' GLSL goes here (realtime.engine.gpu.shading_sources), occlusion and
+// interreflection first (the light array's lobes call the shadow maps' light_visibility), then:
+//   vec3 diffuse_irradiance(vec3 n): E(n), the cosine-weighted integral of the environment
+//   vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
+// @techniques
 
 void main() {
     vec3 n = v_normal;
@@ -64,9 +55,8 @@ void main() {
     Lg = ks * glossy_radiance(reflect(-v, n));
 #endif
 #endif
-#if defined(VCT_OCCLUSION) || defined(VCT_INTERREFLECTION)
-    vct_shade(n, v, Ld, Lg);
-#endif
+    // the techniques' shade entries: void f(n, v, inout Ld, inout Lg) (voxel cone tracing's visibility)
+    // @shade entries
     vec3 color = material_type == MATERIAL_DIFFUSE ? Ld : Lg;
 #ifdef HAS_FRESNEL
     if (material_type == MATERIAL_BLEND) {

@@ -1,4 +1,4 @@
-"""The scene model: TOML file -> validated, frozen dataclasses (design.md section 5).
+"""The scene model: TOML file -> validated, frozen dataclasses (docs/design.md section 5).
 
 Everything is checked on load. Each bad value raises `SceneError` with a message of the form
 
@@ -15,7 +15,8 @@ import copy
 import math
 import os
 import tomllib
-from dataclasses import asdict, dataclass, field
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, fields, is_dataclass
 from functools import cached_property, lru_cache
 from importlib import resources
 from pathlib import Path
@@ -25,7 +26,7 @@ import numpy as np
 
 from scenes.environment import environments
 from scenes.geometry import meshes
-from scenes.model import materials
+from scenes.model import materials, technique_registry
 from scenes.model.camera import Camera
 from scenes.storage.errors import InputError, SceneError
 from scenes.storage.files import input_problem, read_input, short_repr
@@ -39,6 +40,9 @@ MAX_SCENE_BYTES = 16 << 20
 MAX_DEPTH = 16
 #: the most pixels an image may have (8192 x 8192): both renderers hold several float32 copies of it
 MAX_PIXELS = 1 << 26
+#: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB;
+#: realtime.occlusion = "shadow_maps" refuses more)
+MAX_SHADOW_TEXELS = 1 << 28
 
 
 # --------------------------------------------------------------------------- dataclasses
@@ -132,47 +136,6 @@ class ToneMap:
 
 
 @dataclass(frozen=True)
-class Prefiltered:
-    """[realtime.prefiltered]: the Phong-lobe prefiltered chain (realtime/techniques/prefiltered/prefilter.py)."""
-    samples: int = 64  # meets the 50 ms per-frame budget here (E7 sweeps 16 ... 1024)
-    bias: float = 0.0  # filtered importance sampling: levels added to 0.5 log2(Omega_s / Omega_p)
-
-
-@dataclass(frozen=True)
-class IrradianceMap:
-    """[realtime.irradiance_map]: the exact cosine convolution into a cube map
-    (realtime/techniques/irradiance_map/irradiance_convolution.py)."""
-    size: int = 32  # face size of the irradiance cube map
-    source_size: int = 32  # face size of the mip level that is convolved
-
-
-@dataclass(frozen=True)
-class Lights:
-    """[realtime.lights]: the light array (scenes/environment/light_array.py, realtime/techniques/lights/lights.py)."""
-    count: int = 42  # geodesic: a subdivided polyhedron's vertex count; median_cut: a power of two
-    placement: str = "geodesic"
-    shadow_map_size: int = 512  # one depth map per light (realtime.occlusion = "shadow_maps")
-
-
-@dataclass(frozen=True)
-class Prt:
-    """[realtime.prt]: precomputed radiance transfer (realtime/techniques/prt/prt_transfer.py,
-    realtime/techniques/prt/prt.py)."""
-    order: int = 2  # SH order of the transfer (2: 9 coefficients ... 4: 25)
-    rays: int = 256  # visibility rays per vertex (realtime.occlusion or interreflection = "prt")
-    bounces: int = 0  # interreflected bounces (>= 1 with realtime.interreflection = "prt")
-
-
-@dataclass(frozen=True)
-class Vct:
-    """[realtime.vct]: voxel cone tracing (realtime/techniques/vct/vct.py, realtime/techniques/vct/vct_math.py)."""
-    resolution: int = 64
-    cascades: int = 3
-    diffuse_cones: int = 6
-    step: float = 0.5
-
-
-@dataclass(frozen=True)
 class SphereMap:
     """[realtime.sphere_map]: the view the sphere map is made for (realtime/engine/environment_maps.py)."""
     capture: str | tuple[float, float, float] = "camera"  # "camera" (remade for the render view) or a view direction
@@ -180,28 +143,46 @@ class SphereMap:
 
 @dataclass(frozen=True)
 class Realtime:
+    """[realtime]: the engine's own keys as fields, the techniques' keys in `settings`.
+
+    A technique's keys (the flat ones it reads, like `sh_order`, and its table, like `[realtime.lights]`)
+    are declared by the technique (scenes/model/technique_registry.py) and read here by attribute all the
+    same: `rt.sh_order`, `rt.lights.count`.
+
+    Which technique keys a scene carries (and `Scene.to_dict()` returns, so its content id): every
+    builtin technique's, with their defaults where the file does not set them, whether or not it is
+    chosen; a plugin technique's only when the scene chooses it. So installing a plugin changes no
+    builtin scene's content id.
+    """
     base_size: int = 256
     face_size: int | str = 64
-    lod_bias: float = 0.0
-    lod_mapping: str = "paper"
-    sh_window: str = "none"
     rotate_deg_per_frame: float = 0.0
     timing_frames: int = 30
     warmup_frames: int = 5
-    # the techniques (design.md section 9); the defaults are the paper's method
+    # the techniques (docs/architecture.md); the defaults are the paper's method
     diffuse: str = "sh"
-    sh_order: int = 2
     glossy: str = "box"
     occlusion: str = "none"
     interreflection: str = "none"
     parameterization: str = "cube"
     reflection: str = "per_pixel"  # or "per_vertex": the mirror direction interpolated from the vertices
-    prefiltered: Prefiltered = field(default_factory=Prefiltered)
-    irradiance_map: IrradianceMap = field(default_factory=IrradianceMap)
-    lights: Lights = field(default_factory=Lights)
-    prt: Prt = field(default_factory=Prt)
-    vct: Vct = field(default_factory=Vct)
     sphere_map: SphereMap = field(default_factory=SphereMap)
+    #: (key, value) of the techniques' keys: flat values and table dataclasses, in registry order
+    settings: tuple[tuple[str, Any], ...] = ()
+
+    def __getattr__(self, name: str) -> Any:
+        for key, value in self.__dict__.get("settings", ()):
+            if key == name:
+                return value
+        raise AttributeError(f"[realtime] has no key {name!r} here: no chosen or builtin technique declares it")
+
+    def to_dict(self) -> dict:
+        """The engine's keys, then the techniques' keys (tables as dicts)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("sphere_map", "settings")}
+        for key, value in self.settings:
+            out[key] = asdict(value) if is_dataclass(value) else value
+        out["sphere_map"] = asdict(self.sphere_map)
+        return out
 
 
 @dataclass(frozen=True)
@@ -238,7 +219,7 @@ class Scene:
 
     @cached_property
     def effects(self) -> frozenset[str]:
-        """The effects this scene needs (design.md section 4), derived, never written by hand."""
+        """The effects this scene needs (docs/design.md section 4), derived, never written by hand."""
         out = set()
         if any(o.material.has_diffuse for o in self.objects):
             out.add("diffuse")
@@ -270,57 +251,18 @@ class Scene:
         d = asdict(self)
         d.pop("source", None)
         d["environment"]["params"] = dict(self.environment.params)
+        d["realtime"] = self.realtime.to_dict()
         d["effects"] = sorted(self.effects)
         return d
 
 
 # --------------------------------------------------------------------------- schema
 
-Check = tuple[str, Any]  # (kind, argument)
-
-
-def _num(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False, integer: bool = False):
-    lb = "(" if lo_open else "["
-    rb = ")" if hi_open else "]"
-    text = f"{'an integer' if integer else 'a number'} in {lb}{lo:g}, {hi:g}{rb}"
-
-    def check(v):
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and not isinstance(v, int)):
-            return None
-        if not math.isfinite(v):
-            return None
-        if (v < lo or v > hi) or (lo_open and v == lo) or (hi_open and v == hi):
-            return None
-        return int(v) if integer else float(v)
-
-    return check, text
-
-
-def _pow2(lo: int, hi: int, allow_auto: bool = False):
-    text = f"a power of two in [{lo}, {hi}]" + (' or "auto"' if allow_auto else "")
-
-    def check(v):
-        if allow_auto and v == "auto":
-            return v
-        if isinstance(v, bool) or not isinstance(v, int) or v < lo or v > hi or v & (v - 1):
-            return None
-        return v
-
-    return check, text
-
-
-def _enum(*choices):
-    def check(v):
-        return v if v in choices else None
-
-    return check, "one of " + ", ".join(f'"{c}"' for c in choices)
-
-
-def _int_choice(*choices: int):
-    def check(v):
-        return v if isinstance(v, int) and not isinstance(v, bool) and v in choices else None
-
-    return check, "one of " + ", ".join(str(c) for c in choices)
+# each check: (value -> normalised value or None, what is allowed); the technique's checks are the
+# registry's (number, power_of_two, one_of), which the scene's own keys use too
+_num = technique_registry.number
+_pow2 = technique_registry.power_of_two
+_enum = technique_registry.one_of
 
 
 def _vec3(lo: float = -1e6, hi: float = 1e6):
@@ -361,7 +303,7 @@ def _string():
     return (lambda v: v if isinstance(v, str) and v else None), "a non-empty string"
 
 
-SCHEMA: dict[str, dict[str, tuple]] = {
+_SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
     "environment": {
         "map": _string(),
         "rotation_deg": _num(-1e4, 1e4),
@@ -401,46 +343,14 @@ SCHEMA: dict[str, dict[str, tuple]] = {
     "realtime": {
         "base_size": _pow2(1, 4096),
         "face_size": _pow2(1, 4096, allow_auto=True),
-        "lod_bias": _num(-32, 32),
-        "lod_mapping": _enum("paper", "mcguire"),
-        "sh_window": _enum("none", "hanning", "lanczos", "auto"),
         "rotate_deg_per_frame": _num(-360, 360),
         "timing_frames": _num(1, 100000, integer=True),
         "warmup_frames": _num(0, 10000, integer=True),
-        "diffuse": _enum("sh", "irradiance_map", "lights", "prt"),
-        "sh_order": _num(2, 4, integer=True),
-        "glossy": _enum("box", "prefiltered", "lights"),
-        "occlusion": _enum("none", "shadow_maps", "prt", "vct"),
-        "interreflection": _enum("none", "prt", "vct"),
         "parameterization": _enum("cube", "dual_paraboloid", "sphere_map"),
         "reflection": _enum("per_pixel", "per_vertex"),
     },
-    "realtime.prefiltered": {
-        "samples": _num(1, 65536, integer=True),
-        "bias": _num(-16, 16),
-    },
-    "realtime.irradiance_map": {
-        "size": _pow2(1, 256),
-        "source_size": _pow2(1, 256),
-    },
     "realtime.sphere_map": {
         "capture": _view_direction(),
-    },
-    "realtime.lights": {
-        "count": _num(1, 65536, integer=True),
-        "placement": _enum("geodesic", "median_cut"),
-        "shadow_map_size": _pow2(16, 8192),
-    },
-    "realtime.prt": {
-        "order": _num(2, 4, integer=True),
-        "rays": _num(1, 1 << 16, integer=True),
-        "bounces": _num(0, 16, integer=True),
-    },
-    "realtime.vct": {
-        "resolution": _pow2(8, 256),
-        "cascades": _num(1, 4, integer=True),
-        "diffuse_cones": _int_choice(4, 6, 9),
-        "step": _num(0, 4, lo_open=True),
     },
     "reference": {
         "spp": _num(1, 1 << 24, integer=True),
@@ -456,6 +366,44 @@ SCHEMA: dict[str, dict[str, tuple]] = {
         "max_flip": _num(0, 1),
     },
 }
+
+
+class _Schema(Mapping):
+    """{section: {key: check}}: the scene model's own keys, and [realtime]'s technique keys as the registered
+    techniques declare them (the choices of each effect key, their flat keys, their tables), gathered
+    on first use (scenes/model/technique_registry.py)."""
+
+    _built: tuple[object, dict[str, dict[str, tuple]]] | None = None  # (the registry it was built from, schema)
+
+    @property
+    def _full(self) -> dict[str, dict[str, tuple]]:
+        registry = technique_registry.registry()
+        if self._built is None or self._built[0] is not registry:
+            self._built = (registry, self._build())
+        return self._built[1]
+
+    def _build(self) -> dict[str, dict[str, tuple]]:
+        out = {k: dict(v) for k, v in _SCENE_SCHEMA.items()}
+        rt = out["realtime"]
+        for effect in technique_registry.EFFECT_KEYS:
+            rt[effect] = _enum(*technique_registry.choices(effect))
+        for key, (_, check, _) in technique_registry.flat_parameters().items():
+            rt[key] = check
+        for name, cls in technique_registry.tables().items():
+            out[f"realtime.{name}"] = technique_registry.parameter_checks(cls)
+        return out
+
+    def __getitem__(self, key: str) -> dict[str, tuple]:
+        return self._full[key]
+
+    def __iter__(self):
+        return iter(self._full)
+
+    def __len__(self) -> int:
+        return len(self._full)
+
+
+SCHEMA: Mapping[str, dict[str, tuple]] = _Schema()
 #: keys allowed per material type (the others do not apply and are refused)
 MATERIAL_KEYS = {name: set(t.scene_keys) for name, t in materials.TYPES.items()}
 TOP_KEYS = {"name", "environment", "camera", "objects", "tonemap", "realtime", "reference", "gate"}
@@ -639,12 +587,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
 
     realtime = _realtime(tree.get("realtime", {}), where, section)
     reference = Reference(**section("reference", tree.get("reference", {})))
-    two_sided = [i for i, o in enumerate(objects) if o.material.two_sided]
-    if realtime.diffuse == "prt" and two_sided:
-        i = two_sided[0]
-        raise SceneError(f"{where}: realtime.diffuse = 'prt' with objects[{i}].material.two_sided = true: precomputed "
-                         "transfer is computed for the front side only (its back would be shaded with the front's "
-                         "transfer); use one-sided materials or another diffuse technique")
+    technique_registry.validate_objects(realtime, objects, where)
     if reference.lighting == "light_array" and "lights" not in (realtime.diffuse, realtime.glossy):
         raise SceneError(f"{where}: reference.lighting = 'light_array' with realtime.diffuse = {realtime.diffuse!r}: "
                          'the reference renders the real-time light array; set realtime.diffuse or realtime.glossy '
@@ -672,132 +615,71 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
 
 # --------------------------------------------------------------------------- techniques
 
-#: the per-technique tables of [realtime] and their dataclasses
-TECHNIQUE_TABLES = {"prefiltered": Prefiltered, "irradiance_map": IrradianceMap, "lights": Lights, "prt": Prt,
-                    "vct": Vct, "sphere_map": SphereMap}
+#: the [realtime] tables of the engine itself (the techniques' tables are declared by the techniques)
+ENGINE_TABLES = {"sphere_map": SphereMap}
 #: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
-#: ignored. An issue that adds a technique removes its entry here (tests/realtime/test_techniques.py
-#: checks that every other choice has a module).
+#: ignored (tests/realtime/test_techniques.py checks that every other choice has a module).
 NOT_IMPLEMENTED: frozenset[tuple[str, str]] = frozenset()
-#: the most shadow-map texels a light array may ask for (count x shadow_map_size^2 32-bit depths: 1 GiB)
-MAX_SHADOW_TEXELS = 1 << 28
 
 
 def table_users(rt: Realtime) -> dict[str, str | None]:
-    """For each technique table, the `realtime.KEY = "VALUE"` choice that uses it (None: unused)."""
-    def first(*pairs: tuple[str, str]) -> str | None:
-        return next((f'realtime.{k} = "{v}"' for k, v in pairs if getattr(rt, k) == v), None)
+    """For each [realtime] table, the `realtime.KEY = "VALUE"` choice that uses it (None: unused)."""
+    users = technique_registry.table_users(rt)
+    users["sphere_map"] = 'realtime.parameterization = "sphere_map"' if rt.parameterization == "sphere_map" else None
+    return users
 
-    return {"prefiltered": first(("glossy", "prefiltered")),
-            "irradiance_map": first(("diffuse", "irradiance_map")),
-            "lights": first(("diffuse", "lights"), ("glossy", "lights")),
-            "prt": first(("diffuse", "prt"), ("occlusion", "prt"), ("interreflection", "prt")),
-            "vct": first(("occlusion", "vct"), ("interreflection", "vct")),
-            "sphere_map": first(("parameterization", "sphere_map"))}
+
+def _table_hint(name: str) -> str:
+    if name in ENGINE_TABLES:
+        return 'realtime.parameterization = "sphere_map"'
+    return technique_registry.table_hint(name)
 
 
 def _realtime(raw: Any, where: str, section) -> Realtime:
-    """[realtime] and its technique tables: values, then the tables' use, then combinations."""
+    """[realtime]: its values (the techniques' as they declare them), then the use of every table and
+    technique key given (pbrt's ReportUnused), then each technique's rules against the other choices."""
     if not isinstance(raw, dict):
         raise SceneError(f"{where}: realtime must be a table, got {short_repr(raw)}")
-    flat = {k: v for k, v in raw.items() if k not in TECHNIQUE_TABLES}
-    tables = {}
-    for name, cls in TECHNIQUE_TABLES.items():
-        if name in raw:
-            tables[name] = cls(**section(f"realtime.{name}", raw[name]))
-    rt = Realtime(**section("realtime", flat), **tables)
+    technique_tables = technique_registry.tables()
+    flat = {k: v for k, v in raw.items() if k not in technique_tables and k not in ENGINE_TABLES}
+    for effect in technique_registry.EFFECT_KEYS:  # a choice of a plugin that failed to load: its own error
+        if effect in flat and flat[effect] not in technique_registry.choices(effect):
+            technique_registry.refuse_broken_choice(effect, flat[effect])
+    values = section("realtime", flat)
+    engine_keys = {f.name for f in fields(Realtime)}
+    engine = {k: v for k, v in values.items() if k in engine_keys}
+    if "sphere_map" in raw:
+        engine["sphere_map"] = SphereMap(**section("realtime.sphere_map", raw["sphere_map"]))
+    choice = Realtime(**engine)
+    picked = {(e, getattr(choice, e)) for e in technique_registry.EFFECT_KEYS}
+    settings: dict[str, Any] = {}
+    given_tables = {}
+    for d in technique_registry.declarations():
+        if not d.builtin and (d.effect, d.name) not in picked:
+            continue  # a plugin's keys only where it is chosen (see Realtime)
+        for key, default in technique_registry.parameter_defaults(d.flat).items():
+            settings.setdefault(key, values.get(key, default))
+        if d.table is not None and d.table not in settings:
+            given_tables[d.table] = raw.get(d.table, {})
+            settings[d.table] = d.parameters(**section(f"realtime.{d.table}", given_tables[d.table]))
+    rt = Realtime(**engine, settings=tuple(settings.items()))
     fs = rt.face_size
     if fs != "auto" and fs > rt.base_size:
         raise SceneError(f"{where}: realtime.face_size = {fs!r}: must be at most realtime.base_size = {rt.base_size}")
     users = table_users(rt)
-    for name in tables:  # pbrt's ReportUnused: a table nobody reads is a mistake, not a no-op
-        if users[name] is None:
+    for name in raw:  # pbrt's ReportUnused: a table or key nobody reads is a mistake, not a no-op
+        if name in users and users[name] is None:
             raise SceneError(f"{where}: realtime.{name}: this table is not used by the chosen techniques; "
                              f"it applies to {_table_hint(name)}")
-    _check_combinations(rt, flat, where)
-    _check_technique_tables(rt, raw, where)
+        if name in values and name not in engine_keys and name not in settings:
+            owner = technique_registry.flat_parameters()[name][0]
+            raise SceneError(f"{where}: realtime.{name}: this key is not read by the chosen techniques; it "
+                             f"applies to {owner.choice}")
+    technique_registry.validate(rt, {**flat, **given_tables}, where)
     for key in ("diffuse", "glossy", "occlusion", "interreflection", "parameterization"):
         if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
             raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
-    m = rt.irradiance_map  # its default source (32) must not stop a small base_size the map does not read
-    if rt.diffuse == "irradiance_map" and m.source_size > rt.base_size:
-        raise SceneError(f"{where}: realtime.irradiance_map.source_size = {m.source_size}: must be at most "
-                         f"realtime.base_size = {rt.base_size}")
     return rt
-
-
-def _table_hint(name: str) -> str:
-    return {"prefiltered": 'realtime.glossy = "prefiltered"', "irradiance_map": 'realtime.diffuse = "irradiance_map"',
-            "lights": 'realtime.diffuse or realtime.glossy = "lights"',
-            "prt": 'realtime.diffuse, occlusion or interreflection = "prt"',
-            "vct": 'realtime.occlusion or interreflection = "vct"',
-            "sphere_map": 'realtime.parameterization = "sphere_map"'}[name]
-
-
-def _check_technique_tables(rt: Realtime, raw: dict, where: str) -> None:
-    """Values of the light-array and transfer tables that only make sense with some choices."""
-    from scenes.environment import light_array
-
-    lights, prt = rt.lights, rt.prt
-    given_lights, given_prt = raw.get("lights", {}), raw.get("prt", {})
-    if "lights" in (rt.diffuse, rt.glossy):
-        problem = light_array.count_problem(lights.placement, lights.count)
-        if problem:
-            raise SceneError(f"{where}: realtime.lights.count = {lights.count} with realtime.lights.placement = "
-                             f"{lights.placement!r}: {problem}")
-    if "shadow_map_size" in given_lights and rt.occlusion != "shadow_maps":
-        raise SceneError(f"{where}: realtime.lights.shadow_map_size = {lights.shadow_map_size} with "
-                         f"realtime.occlusion = {rt.occlusion!r}: shadow maps are drawn for "
-                         'realtime.occlusion = "shadow_maps" only')
-    texels = lights.count * lights.shadow_map_size ** 2
-    if rt.occlusion == "shadow_maps" and texels > MAX_SHADOW_TEXELS:
-        raise SceneError(f"{where}: realtime.lights.count = {lights.count} with realtime.lights.shadow_map_size = "
-                         f"{lights.shadow_map_size}: {texels} shadow-map texels ({texels * 4 / 2**30:.2g} GiB); "
-                         f"at most {MAX_SHADOW_TEXELS} (1 GiB): fewer lights or smaller maps")
-    if rt.interreflection == "prt" and prt.bounces < 1:
-        raise SceneError(f"{where}: realtime.interreflection = 'prt' with realtime.prt.bounces = {prt.bounces}: "
-                         "interreflected transfer needs at least one bounce")
-    if prt.bounces > 0 and rt.interreflection != "prt":
-        raise SceneError(f"{where}: realtime.prt.bounces = {prt.bounces} with realtime.interreflection = "
-                         f"{rt.interreflection!r}: bounces are gathered for realtime.interreflection = \"prt\" only")
-    if "rays" in given_prt and rt.occlusion != "prt":
-        raise SceneError(f"{where}: realtime.prt.rays = {prt.rays} with realtime.occlusion = {rt.occlusion!r}: "
-                         'visibility rays are traced for realtime.occlusion = "prt" only (unshadowed transfer is '
-                         "exact)")
-
-
-def _check_combinations(rt: Realtime, given: dict, where: str) -> None:
-    """Combinations that make no sense are errors naming both keys (design.md section 9)."""
-    def bad(key_a: str, key_b: str, why: str) -> SceneError:
-        return SceneError(f"{where}: realtime.{key_a} = {getattr(rt, key_a)!r} with realtime.{key_b} = "
-                          f"{getattr(rt, key_b)!r}: {why}")
-
-    if rt.occlusion == "shadow_maps" and "lights" not in (rt.diffuse, rt.glossy):
-        raise bad("occlusion", "diffuse", 'shadow maps are cast by the light array: set realtime.diffuse or '
-                  'realtime.glossy = "lights"')
-    if rt.occlusion == "prt" and rt.diffuse != "prt":
-        raise bad("occlusion", "diffuse", 'precomputed visibility lives in the transfer: set realtime.diffuse = "prt"')
-    if rt.interreflection == "vct" and rt.occlusion != "vct":
-        raise bad("interreflection", "occlusion", "light gathered from the voxels replaces the environment they "
-                  'block: set realtime.occlusion = "vct"')
-    if rt.interreflection == "prt" and (rt.diffuse != "prt" or rt.occlusion != "prt"):
-        raise bad("interreflection", "occlusion", "interreflected transfer includes its shadowing: set "
-                  'realtime.diffuse = "prt" and realtime.occlusion = "prt"')
-    # the lobe-prefiltered chain and the irradiance map convolve the cube map: cube only
-    if rt.parameterization != "cube":
-        for key, value in (("glossy", "prefiltered"), ("diffuse", "irradiance_map")):
-            if getattr(rt, key) == value:
-                raise bad(key, "parameterization", f'realtime.{key} = "{value}" reads the cube map; set '
-                          'realtime.parameterization = "cube" or choose another technique')
-    # the paper's knobs of one technique, set explicitly while another technique is chosen
-    if "sh_order" in given and rt.sh_order != 2 and rt.diffuse != "sh":
-        raise bad("sh_order", "diffuse", 'the SH order applies to realtime.diffuse = "sh" only')
-    if "sh_window" in given and rt.sh_window != "none" and rt.diffuse != "sh":
-        raise bad("sh_window", "diffuse", 'SH windows apply to realtime.diffuse = "sh" only')
-    for key in ("lod_bias", "lod_mapping"):
-        if key in given and rt.glossy != "box" and getattr(rt, key) != getattr(Realtime, key):
-            raise bad(key, "glossy", 'the paper\'s LOD rule applies to realtime.glossy = "box" only '
-                      "(the prefiltered chain has [realtime.prefiltered] bias)")
 
 
 # --------------------------------------------------------------------------- overrides

@@ -33,3 +33,17 @@ class MissingCapability(RuntimeError):
     def __init__(self, message: str, hint: str = "") -> None:
         super().__init__(message)
         self.hint = hint
+
+
+class PluginError(Exception):
+    """A technique plugin (entry-point group `iblcheck.techniques`) cannot be used. Its message is one line
+    naming the plugin's distribution and entry point; the subclasses choose the CLI's exit code."""
+
+
+class PluginDeclarationError(PluginError, InputError):
+    """A plugin's declaration is wrong (a missing field, a wrong type, a clashing name, a default out of
+    its range). CLI exit code 2."""
+
+
+class PluginLoadError(PluginError, MissingCapability):
+    """A plugin cannot be loaded: its module does not import, or its GLSL does not compile. CLI exit code 3."""

@@ -1,4 +1,4 @@
-"""The dual paraboloid and the sphere map through the whole real-time pipeline (issue 13).
+"""The dual paraboloid and the sphere map through the whole real-time pipeline.
 
 Independent expectations:
 - the GPU's base level is the Mitsuba-convention lookup (scenes.environment.envmap) at every texel's direction
@@ -228,8 +228,7 @@ void main() {
 @pytest.mark.parametrize("bias", [0.0, 1.5])
 def test_the_lookup_reads_the_level_of_equal_solid_angle(name, bias):
     from realtime.engine.gpu import SceneDrawer
-    from realtime.engine.technique import Frame
-    from realtime.techniques.box.glossy_box import BoxGlossy
+    from realtime.engine.technique import Frame, build
 
     base, face = 64, 16
     scene = small("builtin:sphere-phong", **{"realtime.parameterization": name, "realtime.base_size": base,
@@ -248,7 +247,7 @@ def test_the_lookup_reads_the_level_of_equal_solid_angle(name, bias):
             prog.run((size + 7) // 8, (size + 7) // 8, store.layers)
         ctx.memory_barrier()
         host_lod = math.log2(base / face) + bias  # the paper's mapping: level(s) + bias
-        glossy = BoxGlossy(Frame(ctx, scene, store, face, int(math.log2(base / face))))
+        glossy = build("glossy", "box", Frame(ctx, scene, store, face, int(math.log2(base / face))))
         drawer = SceneDrawer(ctx, scene, store, [glossy])
         drawer.draw_background(0.0)
         drawer.draw()

@@ -1,4 +1,4 @@
-"""The technique interface (design.md section 9, issue 10): scene keys, refusals, composition."""
+"""The technique interface (docs/design.md section 9): scene keys, refusals, composition."""
 
 from __future__ import annotations
 
@@ -21,12 +21,14 @@ def choices(key: str) -> list[str]:
 @pytest.mark.parametrize("key", CHOICE_KEYS)
 def test_every_choice_is_a_technique_or_refused_as_not_implemented(key):
     for value in choices(key):
-        implemented = ((key, value) in technique.REGISTRY or value == "none"
+        implemented = ((key, value) in technique.pairs() or value == "none"
                        or (key == "parameterization" and value in STORES))
         assert implemented != ((key, value) in NOT_IMPLEMENTED), (key, value)
-        if implemented and (key, value) in technique.REGISTRY:
-            cls = technique.technique_class(key, value)
-            assert cls.effect == key and cls.name == value and key in cls.simulates
+        if implemented and (key, value) in technique.pairs():
+            decl = technique.declaration_of(key, value)
+            assert decl.effect == key and decl.name == value and key in decl.simulates
+            cls = decl.load()  # its OpenGL class exists and is a Technique
+            assert issubclass(cls, technique.Technique)
 
 
 def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
@@ -64,7 +66,7 @@ def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
     ({"realtime.diffuse": "irradiance_map", "realtime.base_size": 64, "realtime.face_size": 16,
       "realtime.irradiance_map.source_size": 128},
      ["realtime.irradiance_map.source_size", "realtime.base_size"]),
-    # the light array and precomputed transfer (issue 12)
+    # the light array and precomputed transfer
     ({"realtime.diffuse": "lights", "realtime.lights.count": 40}, ["realtime.lights.count", "42, 66"]),
     ({"realtime.diffuse": "lights", "realtime.lights.placement": "median_cut", "realtime.lights.count": 42},
      ["realtime.lights.count", "realtime.lights.placement", "power of two"]),
@@ -144,7 +146,7 @@ def test_a_technique_that_reaches_one_lobe_names_the_other(spec, overrides, miss
 
 
 def test_only_the_scenes_effects_get_techniques():
-    # a diffuse technique chosen for a scene without diffuse is not run (design.md section 4)
+    # a diffuse technique chosen for a scene without diffuse is not run (docs/design.md section 4)
     s = scenes.load("builtin:sphere-phong").with_overrides({"realtime.diffuse": "irradiance_map"})
     assert technique.needed(s) == [("glossy", "box")]
     s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.glossy": "prefiltered"})
@@ -169,6 +171,6 @@ def test_owner_of_technique_keys():
     (16, 100.0, 4.0),  # level(16) = 4 is coarser than the lobe's 2.678
 ])
 def test_prefiltered_lod_by_hand(face, exponent, want):
-    from realtime import levels
+    from realtime.engine import levels
 
     assert levels.prefiltered_lod(face, 256, exponent) == pytest.approx(want, abs=1e-8)

@@ -1,7 +1,7 @@
 """Glossy technique `box`: the paper's 2x2-box mip chain read at a LOD (`realtime.glossy = "box"`).
 
 L_g = ks textureLod(cube, r, lod) with r the mirror direction and lod = level(s) + offset(N) + bias
-(design.md section 3, step 5). The LOD is computed once per object on the host
+(docs/design.md section 3, step 5). The LOD is computed once per object on the host
 (`realtime.engine.levels.glossy_lod`, the only place the formula lives) and passed as a uniform.
 
 On a 2D parameterization (`realtime.parameterization`, realtime/engine/environment_maps.py) the same host
@@ -20,13 +20,6 @@ ENV_CUBE_UNIT = 1
 
 
 class BoxGlossy(Technique):
-    effect = "glossy"
-    name = "box"
-    simulates = frozenset({"glossy"})
-    timing_key = "filter"  # the chain is part of the paper's `filter`
-    reads = ("realtime.lod_bias", "realtime.lod_mapping")
-    axes = {"realtime.lod_bias": (-1.0, 0.0, 1.0, 2.0), "realtime.lod_mapping": ("paper", "mcguire")}
-
     def chain_level(self, frame: Frame) -> int | None:
         return None  # the LOD may read any level
 

@@ -19,13 +19,6 @@ IRRADIANCE_UNIT = 2
 
 
 class IrradianceMapDiffuse(Technique):
-    effect = "diffuse"
-    name = "irradiance_map"
-    simulates = frozenset({"diffuse"})
-    timing_key = "irradiance"
-    reads = ("realtime.irradiance_map.",)
-    axes = {"realtime.irradiance_map.size": (16, 32, 64), "realtime.irradiance_map.source_size": (16, 32)}
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         params = frame.scene.realtime.irradiance_map

@@ -5,7 +5,7 @@
 over every texel w of one level of the environment cube map (face size `source_size`), with the
 exact texel solid angles (scenes.environment.cubemap.texel_solid_angles, as the SH projection uses), for n =
 each texel direction of an output cube map of face size `size`. The shader then reads
-E = texture(irr, n).rgb and shades kd / pi E, like the paper's E(n) = n^T M n (design.md section 3).
+E = texture(irr, n).rgb and shades kd / pi E, like the paper's E(n) = n^T M n (docs/design.md section 3).
 
 By default the sum is normalised by its discrete kernel mass,
 
@@ -87,10 +87,10 @@ class IrradianceConvolver:
         self.source_size = source_size
         self.normalize = normalize
         self.block, self.local_x, self.local_y = _layout(size)
-        self.pack_prog = ctx.compute_shader(shader_source("irradiance_pack.comp"))
+        self.pack_prog = ctx.compute_shader(shader_source("irradiance_pack.comp", package=__package__))
         defines = (f"B {self.block}", f"LX {self.local_x}", f"LY {self.local_y}")
         defines += ("NORMALIZE",) if normalize else ()
-        self.prog = ctx.compute_shader(shader_source("irradiance_convolve.comp", defines))
+        self.prog = ctx.compute_shader(shader_source("irradiance_convolve.comp", defines, package=__package__))
         w = texel_weights(source_size).reshape(6 * source_size, source_size, 4)
         self.weights = ctx.texture((source_size, 6 * source_size), 4, w.astype("f4").tobytes(), dtype="f4")
         self.weights.filter = (moderngl.NEAREST, moderngl.NEAREST)

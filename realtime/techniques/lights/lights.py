@@ -41,7 +41,7 @@ class LightArrayGpu:
         self.row_omega = ctx.buffer(equirect_solid_angles(h, w)[:, 0].astype("f4").tobytes())
         self.powers = ctx.buffer(reserve=count * 16)
         self.directions = ctx.buffer(reserve=count * 16)
-        self.prog = ctx.compute_shader(shader_source("light_power.comp"))
+        self.prog = ctx.compute_shader(shader_source("light_power.comp", package=__package__))
         self.updated_frame: int | None = None
         self.world_directions = self.array.directions
         self.map_integral = light_array.map_integral(env)
@@ -100,11 +100,6 @@ def shared_array(frame: Frame) -> LightArrayGpu:
 class _LightsLobe(Technique):
     """What the diffuse and the glossy lobe of the light array share."""
 
-    simulates: frozenset[str]
-    timing_key = "lights"
-    reads = ("realtime.lights.count", "realtime.lights.placement")
-    axes = {"realtime.lights.count": (4, 12, 42, 162, 642), "realtime.lights.placement": ("geodesic",)}
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.gpu: LightArrayGpu | None = None
@@ -133,19 +128,11 @@ class _LightsLobe(Technique):
 
 
 class DiffuseLights(_LightsLobe):
-    effect = "diffuse"
-    name = "lights"
-    simulates = frozenset({"diffuse"})
-
     def defines(self) -> tuple[str, ...]:
         return ("DIFFUSE_LIGHTS",)
 
 
 class GlossyLights(_LightsLobe):
-    effect = "glossy"
-    name = "lights"
-    simulates = frozenset({"glossy"})
-
     def defines(self) -> tuple[str, ...]:
         return ("GLOSSY_LIGHTS",)
 

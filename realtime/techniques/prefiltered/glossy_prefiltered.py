@@ -25,13 +25,6 @@ PREFILTERED_UNIT = 3
 
 
 class PrefilteredGlossy(Technique):
-    effect = "glossy"
-    name = "prefiltered"
-    simulates = frozenset({"glossy"})
-    timing_key = "prefilter"
-    reads = ("realtime.prefiltered.",)
-    axes = {"realtime.prefiltered.samples": (16, 64, 256, 1024)}
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         rt = frame.scene.realtime

@@ -25,6 +25,7 @@ import moderngl
 import numpy as np
 
 from realtime.engine.technique import NO_CUBE, Frame, Technique
+from realtime.techniques.prt.settings import effective_settings
 from scenes.environment import shbasis
 
 TRANSFER_BINDING = 7
@@ -40,20 +41,10 @@ def transfer_objects(scene) -> list:
 
 
 class PrtDiffuse(Technique):
-    effect = "diffuse"
-    name = "prt"
-    simulates = frozenset({"diffuse"})
-    timing_key = "filter"  # this frame's SH projection, like the paper's SH9
-    reads = ("realtime.prt.order",)
-    axes = {"realtime.prt.order": (2, 3, 4)}
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
-        rt = frame.scene.realtime
-        self.order = rt.prt.order
-        self.shadowed = rt.occlusion == "prt"
-        self.bounces = rt.prt.bounces if rt.interreflection == "prt" else 0
-        self.rays = rt.prt.rays if self.shadowed else 0
+        self.settings = effective_settings(frame.scene)
+        self.order = self.settings.order
         self.projector = None
         self.buffers: dict[int, moderngl.Buffer] = {}
         self.info: dict = {}
@@ -61,8 +52,9 @@ class PrtDiffuse(Technique):
     def prepare(self, frame: Frame) -> None:
         from realtime.techniques.prt.prt_transfer import cached_transfer
 
-        transfers, self.info = cached_transfer(transfer_objects(frame.scene), self.order, max(self.rays, 1),
-                                               self.bounces, self.shadowed, progress=True)
+        s = self.settings
+        transfers, self.info = cached_transfer(transfer_objects(frame.scene), s.order, s.rays, s.bounces, s.shadowed,
+                                               progress=True)
         for i, t in enumerate(transfers):
             self.buffers[i] = frame.ctx.buffer(np.ascontiguousarray(t, dtype="f4").tobytes())
         if frame.scene.realtime.parameterization == "cube":
@@ -92,8 +84,9 @@ class PrtDiffuse(Technique):
         self.buffers[index].bind_to_storage_buffer(TRANSFER_BINDING)
 
     def meta(self) -> dict:
-        return {"prt": {"order": self.order, "shadowed": self.shadowed, "bounces": self.bounces,
-                        "rays": self.rays, **{k: v for k, v in self.info.items() if k != "key"},
+        s = self.settings
+        return {"prt": {"order": s.order, "shadowed": s.shadowed, "bounces": s.bounces,
+                        "rays": s.rays_reported, **{k: v for k, v in self.info.items() if k != "key"},
                         "cache_key": self.info.get("key")}}
 
     def release(self) -> None:
@@ -106,24 +99,9 @@ class PrtDiffuse(Technique):
 class PrtOcclusion(Technique):
     """`occlusion = "prt"`: the visibility lives in PrtDiffuse's transfer; this marks the effect."""
 
-    effect = "occlusion"
-    name = "prt"
-    simulates = frozenset({"occlusion"})
-    reads = ("realtime.prt.rays",)
-    axes = {"realtime.prt.rays": (64, 256, 1024)}
-
-    @classmethod
-    def covers(cls, lobe: str, scene) -> bool:
-        return lobe == "diffuse"
-
     def chain_level(self, frame: Frame) -> int | None:
         return NO_CUBE  # the transfer is read by PrtDiffuse, which reads the cube
 
 
 class PrtInterreflection(PrtOcclusion):
     """`interreflection = "prt"`: the bounces live in PrtDiffuse's transfer; this marks the effect."""
-
-    effect = "interreflection"
-    simulates = frozenset({"interreflection"})
-    reads = ("realtime.prt.bounces",)
-    axes = {"realtime.prt.bounces": (1, 2)}

@@ -19,13 +19,6 @@ from scenes.environment import shbasis
 
 
 class ShDiffuse(Technique):
-    effect = "diffuse"
-    name = "sh"
-    simulates = frozenset({"diffuse"})
-    timing_key = "filter"  # the paper's `filter`: cube fill + box chain + SH projection
-    reads = ("realtime.sh_order", "realtime.sh_window")
-    axes = {"realtime.sh_order": (2, 3, 4), "realtime.sh_window": ("none", "auto")}
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.order = frame.scene.realtime.sh_order

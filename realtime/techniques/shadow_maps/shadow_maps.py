@@ -61,17 +61,6 @@ def light_matrices(directions: np.ndarray, centre: np.ndarray, radius: float) ->
 
 
 class ShadowMaps(Technique):
-    effect = "occlusion"
-    name = "shadow_maps"
-    simulates = frozenset({"occlusion"})
-    timing_key = "shadow"
-    reads = ("realtime.lights.shadow_map_size",)
-    axes = {"realtime.lights.shadow_map_size": (256, 1024)}
-
-    @classmethod
-    def covers(cls, lobe: str, scene) -> bool:
-        return getattr(scene.realtime, lobe) == "lights"  # it shadows the light array only
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         rt = frame.scene.realtime
@@ -101,8 +90,8 @@ class ShadowMaps(Technique):
         self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)  # bilinear PCF of the compare results
         self.atlas.repeat_x = self.atlas.repeat_y = False
         self.fbo = ctx.framebuffer(depth_attachment=self.atlas)
-        self.prog = ctx.program(vertex_shader=shader_source("shadow_depth.vert"),
-                                fragment_shader=shader_source("depth_only.frag"))
+        self.prog = ctx.program(vertex_shader=shader_source("shadow_depth.vert", package=__package__),
+                                fragment_shader=shader_source("depth_only.frag", package=__package__))
         self.matrices = ctx.buffer(reserve=self.count * 64)
         for obj in frame.scene.objects:
             vbo = ctx.buffer(obj.mesh.positions.astype("f4").tobytes())

@@ -146,9 +146,10 @@ class VoxelScene:
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
             self.faces.append(tex)
         self.mip_levels = self.grid.levels
-        self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES))
-        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES))
-        self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp"))
+        here = __package__
+        self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
+        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES, package=here))
+        self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
         self.probe_prog = None
         self.updated_frame: int | None = None
         self.split: dict[str, float] = {}
@@ -262,7 +263,7 @@ class VoxelScene:
     def read_faces(self, level: int = 0) -> np.ndarray:
         """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
         r = self.resolution >> level
-        prog = self.ctx.compute_shader(shader_source("vct_dump.comp"))
+        prog = self.ctx.compute_shader(shader_source("vct_dump.comp", package=__package__))
         buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
         out = []
         for tex in self.faces:
@@ -286,7 +287,7 @@ class VoxelScene:
     def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
         """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""
         if self.probe_prog is None:
-            self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp"))
+            self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp", package=__package__))
         p = self.probe_prog
         n = len(points)
         data = np.zeros((n, 2, 4), "f4")
@@ -347,9 +348,6 @@ def shared_voxels(frame: Frame) -> VoxelScene:
 class _VctEffect(Technique):
     """What `occlusion = "vct"` and `interreflection = "vct"` share: the voxel scene, its per-frame update."""
 
-    timing_key = "voxelize"
-    extra_timing_keys = ("mip",)
-
     def __init__(self, frame: Frame) -> None:
         super().__init__(frame)
         self.voxels: VoxelScene | None = None
@@ -387,23 +385,12 @@ class _VctEffect(Technique):
 class VctOcclusion(_VctEffect):
     """`occlusion = "vct"`: the environment's diffuse and glossy light times the cones' visibility."""
 
-    effect = "occlusion"
-    name = "vct"
-    simulates = frozenset({"occlusion"})
-    reads = ("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones", "realtime.vct.step")
-    axes = {"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
-            "realtime.vct.diffuse_cones": (4, 6, 9)}
-
     def defines(self) -> tuple[str, ...]:
         return ("VCT_OCCLUSION",)
 
 
 class VctInterreflection(_VctEffect):
     """`interreflection = "vct"`: plus the one-bounce radiance the same cones gather from the voxels."""
-
-    effect = "interreflection"
-    name = "vct"
-    simulates = frozenset({"interreflection"})
 
     def defines(self) -> tuple[str, ...]:
         return ("VCT_INTERREFLECTION",)

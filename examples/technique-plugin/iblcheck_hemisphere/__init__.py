@@ -1,0 +1,1 @@
+"""Hemisphere lighting as an iblcheck technique plugin (`realtime.diffuse = "hemisphere"`)."""

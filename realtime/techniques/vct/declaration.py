@@ -1,0 +1,48 @@
+"""`realtime.occlusion = "vct"` and `realtime.interreflection = "vct"`: voxel cone tracing, declared as data
+(scenes/model/technique_registry.py); the OpenGL half is vct.py, its numpy half vct_math.py. Both read
+[realtime.vct] and share one voxel scene per frame."""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+from scenes.model.technique_registry import Declaration, combination_error, int_choice, number, param, power_of_two
+
+
+@dataclass(frozen=True)
+class Vct:
+    """[realtime.vct]: voxel cone tracing (vct.py, vct_math.py)."""
+    resolution: int = param(64, power_of_two(8, 256))
+    cascades: int = param(3, number(1, 4, integer=True))
+    diffuse_cones: int = param(6, int_choice(4, 6, 9))
+    step: float = param(0.5, number(0, 4, lo_open=True))
+
+
+def validate(rt, given: dict, where: str) -> None:
+    if rt.interreflection == "vct" and rt.occlusion != "vct":
+        raise combination_error(rt, "interreflection", "occlusion", "light gathered from the voxels replaces the "
+                                'environment they block: set realtime.occlusion = "vct"', where)
+
+
+def describe(rt) -> dict:
+    return {"vct": asdict(rt.vct)}
+
+
+_COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
+               timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,
+               fragment_glsl=("vct.glsl",), shade_entry="vct_shade", describe=describe)
+DECLARATIONS = (
+    Declaration(
+        **_COMMON, effect="occlusion", name="vct", rank=30, simulates=frozenset({"occlusion"}),
+        implementation="realtime.techniques.vct.vct:VctOcclusion",
+        reads=("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones",
+               "realtime.vct.step"),
+        axes={"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
+              "realtime.vct.diffuse_cones": (4, 6, 9)},
+        validate=validate,
+    ),
+    Declaration(
+        **_COMMON, effect="interreflection", name="vct", rank=20, simulates=frozenset({"interreflection"}),
+        implementation="realtime.techniques.vct.vct:VctInterreflection",
+    ),
+)

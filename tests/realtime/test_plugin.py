@@ -1,0 +1,180 @@
+"""A technique from another installed package: examples/technique-plugin (`realtime.diffuse =
+"hemisphere"`) installed into a scratch folder and run through the CLI in a subprocess
+(PYTHONPATH = that folder and the repository), like a user's `pip install` would.
+
+The installation is what `pip install --target` leaves behind, made without a wheel builder (the
+virtualenv's setuptools has no `bdist_wheel` and the tests run offline): setuptools' `egg_info` writes
+the package's metadata (its entry point in `iblcheck.techniques` included) into the folder, and the
+package folder is copied beside it. importlib.metadata finds both on sys.path.
+
+Broken plugins (an import error, a wrong declaration, GLSL that does not compile) must give one line
+naming the package, exit 2 or 3, no traceback, and leave the builtins working in the same environment.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE = ROOT / "examples" / "technique-plugin"
+PACKAGE = "iblcheck_hemisphere"
+DIST = "iblcheck-hemisphere"
+SMALL = ["--set", "camera.width=48", "--set", "camera.height=48", "--set", "realtime.timing_frames=1",
+         "--set", "realtime.warmup_frames=0"]
+
+
+def install(src: Path, target: Path) -> Path:
+    """Install the plugin at `src` into `target` (see the module docstring); returns `target`."""
+    target.mkdir(parents=True, exist_ok=True)
+    subprocess.run([sys.executable, "-c", "from setuptools import setup; setup()", "egg_info", "--egg-base",
+                    str(target)], cwd=src, check=True, capture_output=True)
+    shutil.copytree(src / PACKAGE, target / PACKAGE, ignore=shutil.ignore_patterns("__pycache__"))
+    return target
+
+
+def iblcheck(site: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
+    env = {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}"}
+    return subprocess.run([sys.executable, "-m", "experiments.cli.main", *args], capture_output=True, text=True,
+                          env=env, cwd=cwd, timeout=600)
+
+
+def broken_copy(tmp_path: Path, edit) -> Path:
+    """A copy of the example with one file edited: edit(package folder)."""
+    src = tmp_path / "src"
+    shutil.copytree(EXAMPLE, src, ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "build"))
+    edit(src / PACKAGE)
+    return install(src, tmp_path / "site")
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory) -> Path:
+    return install(EXAMPLE, tmp_path_factory.mktemp("site"))
+
+
+def test_the_example_registers_beside_the_builtins(site, tmp_path):
+    code = ("from scenes.model import technique_registry as r; import json, sys; "
+            "print(json.dumps([[d.effect, d.name, d.distribution, d.builtin, list(d.ladder)] "
+            "for d in r.declarations()])); print('moderngl' in sys.modules)")
+    env = {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path,
+                         check=True).stdout.splitlines()
+    decls = json.loads(out[0])
+    assert decls[-1] == ["diffuse", "hemisphere", DIST, False, [{"realtime.diffuse": "hemisphere"}]]
+    assert all(d[3] for d in decls[:-1]) and len(decls) == 13  # the 12 builtins first
+    assert out[1] == "False"  # loading every declaration imports no OpenGL
+
+
+def hemisphere_expectation(scene) -> tuple[np.ndarray, np.ndarray]:
+    """The image hemisphere lighting gives the unit diffuse sphere, by hand: each pixel's ray meets the
+    sphere at p (|p| = 1, so n = p), and L = kd / pi E(n) = kd [(1 + n.y) / 2 L_s + (1 - n.y) / 2 L_g],
+    with L_s, L_g the environment's upper and lower means over the map's rows, each row weighted by
+    its band's solid angle (the integral of sin(theta) over the band)."""
+    env = scene.environment.radiance().astype(np.float64)
+    h = env.shape[0]
+    theta = np.pi * np.arange(h) / (h - 1)
+    edges = np.clip(np.stack([theta - np.pi / (2 * (h - 1)), theta + np.pi / (2 * (h - 1))]), 0, np.pi)
+    band = np.cos(edges[0]) - np.cos(edges[1])  # the band's solid angle / (2 pi)
+    row_mean = env.mean(axis=1)
+    upper = np.where(np.cos(theta) > 1e-12, 1.0, np.where(np.abs(np.cos(theta)) <= 1e-12, 0.5, 0.0)) * band
+    lower = band - upper
+    sky, ground = upper @ row_mean / upper.sum(), lower @ row_mean / lower.sum()
+    rays = scene.camera.pixel_rays()  # (H, W, 3) unit directions from camera.origin
+    o = np.asarray(scene.camera.origin, dtype=np.float64)
+    b = rays @ o
+    disc = b * b - (o @ o - 1.0)
+    hit = disc > 0
+    t = -b - np.sqrt(np.where(hit, disc, 0.0))
+    n = o + t[..., None] * rays
+    up = 0.5 + 0.5 * n[..., 1:2]
+    kd = np.asarray(scene.objects[0].material.kd)
+    return kd * (up * sky + (1 - up) * ground), hit
+
+
+@pytest.mark.gl
+def test_render_matches_hemisphere_lighting_by_hand(site, tmp_path):
+    import scenes
+    from scenes.storage.imageio import read_exr
+
+    r = iblcheck(site, "render", "builtin:sphere-diffuse", "--set", "realtime.diffuse=hemisphere", *SMALL,
+                 "-o", str(tmp_path / "h.exr"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert json.loads(r.stdout)["techniques"]["hemisphere"] == {"ground_scale": 1.0}
+    image = read_exr(tmp_path / "h.exr")[..., :3].astype(np.float64)
+    scene = scenes.load("builtin:sphere-diffuse").with_overrides({"camera.width": 48, "camera.height": 48})
+    want, hit = hemisphere_expectation(scene)
+    inner = hit & (np.abs(np.roll(hit, 1, 0) & np.roll(hit, -1, 0) & np.roll(hit, 1, 1) & np.roll(hit, -1, 1)))
+    rel = np.abs(image[inner] - want[inner]) / want[inner].max()
+    assert rel.max() < 0.01, rel.max()  # the tessellated sphere's interpolated normals: < 1 %
+    # negative control: sky and ground swapped (the map upside down) is far from the image
+    swapped = want[::-1, :, :]
+    flipped = np.abs(image[inner] - swapped[inner]) / want[inner].max()
+    assert flipped.max() > 0.05
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_compare_runs_the_plugin(site, tmp_path):
+    r = iblcheck(site, "compare", "builtin:sphere-diffuse", "--set", "realtime.diffuse=hemisphere",
+                 "--set", "reference.spp=4", *SMALL, "--json", cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert "hemisphere" in out["realtime_ms"]  # the plugin's own timing key: it ran
+    assert out["psnr"] > 10 and out["unsimulated_effects"] == []
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_sweep_technique_axes_includes_the_plugin(site, tmp_path):
+    r = iblcheck(site, "sweep", "builtin:sphere-diffuse", "--technique-axes", "--face-sizes", "16",
+                 "--lod-biases", "0", *SMALL, "--set", "reference.spp=4", "--out", str(tmp_path / "s"),
+                 cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    rows = [json.loads(line) for f in (tmp_path / "s").rglob("*.jsonl") for line in f.read_text().splitlines()]
+    diffuse = [row["techniques"]["diffuse"] for row in rows]
+    assert "hemisphere" in diffuse and "sh" in diffuse
+    grounds = {row["techniques"]["hemisphere"]["ground_scale"] for row in rows if "hemisphere" in row["techniques"]}
+    assert grounds == {0.0, 1.0}  # its declared axis
+
+
+def _import_error(pkg: Path) -> None:
+    text = (pkg / "declaration.py").read_text()
+    (pkg / "declaration.py").write_text(text.replace("from dataclasses import", "import iblcheck_no_such_module\n"
+                                                     "from dataclasses import", 1))
+
+
+def _bad_declaration(pkg: Path) -> None:
+    text = (pkg / "declaration.py").read_text()
+    (pkg / "declaration.py").write_text(text.replace('simulates=frozenset({"diffuse"})', 'simulates="diffuse"'))
+
+
+def _bad_glsl(pkg: Path) -> None:
+    text = (pkg / "diffuse_hemisphere.glsl").read_text()
+    (pkg / "diffuse_hemisphere.glsl").write_text(text.replace("return PI *", "return PI **"))
+
+
+@pytest.mark.gl
+@pytest.mark.parametrize(("edit", "code", "says"), [
+    (_import_error, 3, "cannot be imported: ModuleNotFoundError"),
+    (_bad_declaration, 2, "simulates must be a non-empty frozenset"),
+    (_bad_glsl, 3, "its GLSL does not compile"),
+], ids=["import-error", "bad-declaration", "bad-glsl"])
+def test_a_broken_plugin_is_one_line_and_the_builtins_still_work(tmp_path, edit, code, says):
+    site = broken_copy(tmp_path, edit)
+    r = iblcheck(site, "render", "builtin:sphere-diffuse", "--set", "realtime.diffuse=hemisphere", *SMALL,
+                 "-o", str(tmp_path / "h.exr"), cwd=tmp_path)
+    assert r.returncode == code, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in r.stderr, r.stderr
+    assert f"'{DIST}'" in lines[0] and says in lines[0], lines[0]
+    ok = iblcheck(site, "render", "builtin:sphere-diffuse", *SMALL, "-o", str(tmp_path / "b.exr"), cwd=tmp_path)
+    assert ok.returncode == 0 and not ok.stderr.strip(), ok.stderr

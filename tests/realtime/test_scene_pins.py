@@ -1,0 +1,46 @@
+"""Techniques as plugins change no scene's content: `Scene.to_dict()` (what a result row's content id
+hashes, experiments/runs/sweep.py content_id) and `technique.describe()` (what a row and the render
+metadata report) of every builtin scene, with 14 override sets covering every technique and its table,
+equal what the code returned before the techniques were declared as data (tests/realtime/data/
+scene_pins.json, written by that code). This pins the content ids: a failure here means resumed paper
+runs would recompute their rows."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from realtime.engine import technique
+from scenes.model import scene as scene_model
+
+PINS = json.loads((Path(__file__).parent / "data" / "scene_pins.json").read_text())
+
+
+def _json(value):
+    return json.loads(json.dumps(value, default=list))
+
+
+@pytest.mark.parametrize("pin", PINS, ids=[f"{p['scene']}-{i}" for i, p in enumerate(PINS)])
+def test_to_dict_and_describe_unchanged(pin):
+    base = scene_model.load(f"builtin:{pin['scene']}")
+    if "error" in pin:
+        with pytest.raises(scene_model.SceneError) as exc:
+            base.with_overrides(pin["overrides"])
+        assert str(exc.value) == pin["error"]
+        return
+    s = base.with_overrides(pin["overrides"])
+    assert _json(s.to_dict()) == pin["to_dict"]
+    assert _json(technique.describe(s)) == pin["describe"]
+
+
+def test_pins_cover_every_builtin_choice_and_fail_on_a_change():
+    """Every builtin technique is chosen in some pin, and the comparison sees a changed default
+    (negative control: the same check on a scene with one table value changed fails)."""
+    chosen = {(k, p["to_dict"]["realtime"][k]) for p in PINS if "to_dict" in p for k in technique.EFFECT_KEYS}
+    assert set(technique.pairs()) <= chosen
+    pin = next(p for p in PINS if "to_dict" in p and not p["overrides"])
+    s = scene_model.load(f"builtin:{pin['scene']}").with_overrides({"realtime.prt.order": 3,
+                                                                     "realtime.diffuse": "prt"})
+    assert _json(s.to_dict()) != pin["to_dict"]
