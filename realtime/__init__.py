@@ -14,6 +14,16 @@ chosen techniques' GLSL.
 
 from __future__ import annotations
 
-from realtime.engine.frame import object_distance, render
+from importlib import import_module
+from typing import Any
 
 __all__ = ["object_distance", "render"]
+
+
+def __getattr__(name: str) -> Any:
+    """`render` and `object_distance`, loaded on first use: the lazy loading of this package, decided here
+    once. The scene model reads every technique's declaration (realtime/techniques/*/declaration.py),
+    and importing those must not load OpenGL, which `realtime.engine.frame` does."""
+    if name in __all__:
+        return getattr(import_module("realtime.engine.frame"), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

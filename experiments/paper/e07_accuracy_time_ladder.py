@@ -32,11 +32,7 @@ from realtime.engine.gpu import EnvironmentFilter
 from realtime.engine.levels import level_of
 from realtime.techniques.prefiltered.prefilter import PhongPrefilter
 from scenes.environment import cubemap
-
-try:  # the technique registry (builtins and plugins) is not on every branch of this code yet
-    from scenes.model import technique_registry
-except ImportError:
-    technique_registry = None
+from scenes.model import technique_registry
 
 NUMBER = 7
 TITLE = "E7 accuracy against time across techniques"
@@ -108,7 +104,7 @@ def plugin_points(declarations=None) -> list[tuple[str, dict]]:
     order: `{"realtime.<effect>": name, **point}` for each point of its declared `ladder`.
     `declarations`: the registry's (scenes.model.technique_registry.declarations()) unless given."""
     if declarations is None:
-        declarations = technique_registry.declarations() if technique_registry is not None else ()
+        declarations = technique_registry.declarations()
     return [(d.effect, {f"realtime.{d.effect}": d.name, **point})
             for d in declarations if not d.builtin for point in d.ladder]
 

@@ -33,6 +33,7 @@ from experiments.publish.report import Section, f2, f3, unbiased_cell
 from groundtruth.pathtracer import reference
 from realtime.techniques.prt.prt import transfer_objects
 from realtime.techniques.prt.prt_transfer import cached_transfer
+from realtime.techniques.prt.settings import effective_settings
 from scenes.model.scene import MAX_SHADOW_TEXELS
 
 NUMBER = 8
@@ -225,10 +226,8 @@ def with_prt_seconds(context: Context, row: ResultRow) -> ResultRow:
     if row.techniques.get("diffuse") != "prt" or "prt_seconds" in row.extra:
         return row
     scene = scenes.load(row.spec).with_overrides(row.overrides)
-    rt = scene.realtime
-    shadowed = rt.occlusion == "prt"
-    _, info = cached_transfer(transfer_objects(scene), rt.prt.order, rt.prt.rays if shadowed else 1,
-                              rt.prt.bounces if rt.interreflection == "prt" else 0, shadowed)
+    s = effective_settings(scene)
+    _, info = cached_transfer(transfer_objects(scene), s.order, s.rays, s.bounces, s.shadowed)
     row = replace(row, extra={**row.extra, "prt_seconds": info.get("compute_seconds", info.get("seconds")),
                               "prt_vertices": info.get("vertices"), "prt_rays_traced": info.get("rays_traced")})
     context.replace_row(row)

@@ -87,6 +87,7 @@ from groundtruth.pathtracer.variant import mitsuba
 from realtime.techniques.prt import prt_transfer
 from realtime.techniques.prt.prt import transfer_objects
 from realtime.techniques.prt.prt_transfer import cached_transfer, transfer_key
+from realtime.techniques.prt.settings import effective_settings
 from scenes import InputError, MissingCapability
 from scenes.model.scene import from_dict
 
@@ -253,18 +254,12 @@ def quadrature_task(payload: dict) -> dict:
 
 
 def prt_settings(scene) -> tuple[int, int, int, bool] | None:
-    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes (None: no PRT). Were these
-    to differ from what the PRT technique asks for, the driver would compute the transfer again (a cache
-    miss), never use a wrong one: the cache key holds all four."""
-    # SEAM (effective settings): this derives PRT's settings a second time, beside the PRT technique
-    # package, with its own default for `rays`. Replace the body with that package's single function for
-    # the effective settings (returning None without PRT); nothing else here reads rt.prt.
-    rt = scene.realtime
-    if rt.diffuse != "prt":
+    """(order, rays, bounces, shadowed) of the PRT transfer `scene` precomputes (None: no PRT), as the PRT
+    technique derives them (realtime.techniques.prt.settings.effective_settings)."""
+    if scene.realtime.diffuse != "prt":
         return None
-    shadowed = rt.occlusion == "prt"
-    return int(rt.prt.order), max(int(rt.prt.rays) if shadowed else 0, 1), \
-        int(rt.prt.bounces) if rt.interreflection == "prt" else 0, shadowed
+    s = effective_settings(scene)
+    return s.order, s.rays, s.bounces, s.shadowed
 
 
 def precompute_task(payload: dict, cache_dir: str | None = None) -> dict:

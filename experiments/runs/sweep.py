@@ -156,7 +156,7 @@ def technique_choices(scene) -> list[dict[str, str]]:
     effects = [e for e in technique.EFFECT_KEYS if e in scene.effects]
     options = []
     for effect in effects:
-        names = [v for (e, v) in technique.REGISTRY if e == effect]
+        names = [v for (e, v) in technique.pairs() if e == effect]
         if effect in ("occlusion", "interreflection"):
             names = [technique.NOTHING, *names]
         options.append(names)
@@ -172,12 +172,12 @@ def technique_choices(scene) -> list[dict[str, str]]:
 
 
 def technique_grid(choice: dict[str, str]) -> list[tuple[str, list[Any]]]:
-    """The axes the chosen techniques declare worth sweeping (`Technique.axes`), with the choice itself."""
+    """The axes the chosen techniques declare worth sweeping (their declarations' `axes`), with the choice itself."""
     out: list[tuple[str, list[Any]]] = [(k, [v]) for k, v in choice.items()]
     for key, value in choice.items():
         effect = key.split(".")[1]
         if value != technique.NOTHING:
-            out += [(k, list(v)) for k, v in technique.technique_class(effect, value).axes.items()]
+            out += [(k, list(v)) for k, v in technique.declaration_of(effect, value).axes.items()]
     return out
 
 

@@ -84,7 +84,7 @@ def mitsuba():
                 raise MissingCapability(f"variant {variant} needs libLLVM >= {MIN_LLVM} (Debian 12's LLVM 15 aborts)",
                                         "install Debian's libllvm19 (apt-get install libllvm19)")
             os.environ["DRJIT_LIBLLVM_PATH"] = lib
-        import mitsuba as mi
+        import mitsuba as mi  # deferred: heavy, and libLLVM must be found before it loads
 
         try:
             mi.set_variant(variant)

@@ -18,7 +18,7 @@ HINT = ("install an EGL driver with OpenGL 4.3: on Debian `apt-get install libeg
 def get_context():
     """The shared moderngl context; MissingCapability (CLI exit 3) when there is none."""
     try:
-        import moderngl
+        import moderngl  # deferred: a missing moderngl is a MissingCapability (exit 3), not an ImportError
     except ImportError as exc:
         raise MissingCapability(f"moderngl is not installed ({exc})", "run `make setup`") from None
     kwargs = {"backend": "egl", "require": 430}

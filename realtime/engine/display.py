@@ -11,6 +11,7 @@ import numpy as np
 
 from realtime.engine.context import get_context
 from realtime.engine.gpu import shader_source
+from realtime.engine.timing import summarize, timed
 
 
 class DisplayPass:
@@ -61,8 +62,6 @@ def tonemap_gpu(rgb: np.ndarray, key: float, white: float, exposure: float, adap
 def display_ms(rgb: np.ndarray, key: float, white: float, exposure: float, adapt_lum: float,
                frames: int = 30, warmup: int = 5) -> dict[str, float]:
     """Median and p90 milliseconds of the display pass on an image of rgb's size (design.md section 7)."""
-    from realtime.engine.timing import summarize, timed
-
     ctx = get_context()
     p = DisplayPass(ctx, rgb)
     try:

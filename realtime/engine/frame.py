@@ -21,6 +21,10 @@ import warnings
 import numpy as np
 
 from realtime.engine import levels, technique
+from realtime.engine.context import get_context, is_software, renderer_name
+from realtime.engine.environment_maps import environment_store
+from realtime.engine.gpu import SceneDrawer
+from realtime.engine.timing import summarize, timed
 from scenes.model.render import Render
 
 
@@ -47,11 +51,6 @@ def warn_unsimulated(scene) -> list[str]:
 
 def render(scene) -> Render:
     """Render a scene in real time with its techniques; see the module docstring."""
-    from realtime.engine.context import get_context, is_software, renderer_name
-    from realtime.engine.environment_maps import environment_store
-    from realtime.engine.gpu import SceneDrawer
-    from realtime.engine.timing import summarize, timed
-
     rt = scene.realtime
     ctx = get_context()
     missing = warn_unsimulated(scene)

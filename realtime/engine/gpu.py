@@ -21,7 +21,7 @@ from importlib import resources
 import moderngl
 import numpy as np
 
-from realtime.engine import levels
+from realtime.engine import levels, sh
 from scenes.environment import cubemap, shbasis
 from scenes.environment.directions import direction_to_uv, rotation_y
 from scenes.model import materials
@@ -257,8 +257,6 @@ class EnvironmentFilter:
 def sh9_defines() -> tuple[str, ...]:
     """The SH9 basis constants (scenes/environment/shbasis.py) and the paper's c1..c5 (realtime/engine/sh.py) as
     #defines: the constants live once, in Python."""
-    from realtime.engine import sh
-
     basis = (f"SH_C{i} {c!r}" for i, c in enumerate((shbasis.C0, shbasis.C1, shbasis.C2, shbasis.C3, shbasis.C4)))
     paper = (f"SH_M{i} {c!r}" for i, c in enumerate((sh.C1, sh.C2, sh.C3, sh.C4, sh.C5), start=1))
     return (*basis, *paper)

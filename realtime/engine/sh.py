@@ -28,7 +28,7 @@ from __future__ import annotations
 import numpy as np
 
 from scenes.environment import cubemap
-from scenes.environment.directions import equirect_directions, equirect_solid_angles
+from scenes.environment.directions import equirect_directions, equirect_solid_angles, rotation_y, uv_to_direction
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, order_of, sh9, sh_basis
 
 C1, C2, C3, C4, C5 = 0.429043, 0.511664, 0.743125, 0.886227, 0.247708
@@ -65,16 +65,12 @@ def project_equirect(env: np.ndarray, rotation_deg: float = 0.0, rows: str = "mi
         d = equirect_directions(h, w)
         weights = equirect_solid_angles(h, w)
     elif rows == "centre":
-        from scenes.environment.directions import uv_to_direction
-
         v = (np.arange(h) + 0.5) / h
         d = uv_to_direction(((np.arange(w) + 0.5) / w)[None, :], v[:, None])
         weights = np.repeat((np.sin(np.pi * v) * (np.pi / h) * (2 * np.pi / w))[:, None], w, axis=1)
     else:
         raise ValueError(f"rows must be 'mitsuba' or 'centre', got {rows!r}")
     if rotation_deg:
-        from scenes.environment.directions import rotation_y
-
         d = d @ rotation_y(rotation_deg).T  # the map's sample directions, placed in the world
     return np.einsum("ijk,ij,ijc->kc", _basis(d, order), weights, env)
 

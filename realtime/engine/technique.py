@@ -190,14 +190,3 @@ def describe(scene) -> dict[str, Any]:
         if decl.describe is not None:
             out.update(decl.describe(rt))
     return out
-
-
-def __getattr__(name: str) -> Any:
-    """Names experiments/ still reads from before the registry: REGISTRY ({(effect, value): "module:Class"},
-    now derived from the declarations) and technique_class (now the declaration, which has the class's
-    old `simulates`, `reads`, `axes`)."""
-    if name == "REGISTRY":
-        return {(d.effect, d.name): d.implementation for d in technique_registry.declarations()}
-    if name == "technique_class":
-        return declaration_of
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -24,7 +24,7 @@ from typing import Any
 
 import numpy as np
 
-from scenes.environment import environments
+from scenes.environment import environments, envmap
 from scenes.geometry import meshes
 from scenes.model import materials, technique_registry
 from scenes.model.camera import Camera
@@ -113,16 +113,12 @@ class Environment:
         if self.scale != 1.0:
             with np.errstate(over="ignore"):
                 arr = (arr * np.float32(self.scale)).astype(np.float32)
-        from scenes.environment import envmap
-
         envmap.check_peak(arr, self.map, self.scale)
         return arr
 
 
 @lru_cache(maxsize=8)
 def _read_map(path: str, mtime_ns: int, size: int, sanitize: bool) -> np.ndarray:
-    from scenes.environment import envmap
-
     arr = envmap.read(path, sanitize=sanitize)
     arr.setflags(write=False)
     return arr

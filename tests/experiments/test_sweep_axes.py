@@ -131,10 +131,10 @@ def test_technique_axes_come_from_the_techniques_declarations():
     got = configs("builtin:sphere-diffuse", technique_axes=True)
     # every diffuse technique, each with the product of its own declared axes (sphere-diffuse is convex:
     # no occlusion or interreflection techniques)
-    want = sum(math.prod(len(v) for v in technique.technique_class(key, value).axes.values())
-               for key, value in technique.REGISTRY if key == "diffuse")
+    want = sum(math.prod(len(v) for v in technique.declaration_of(key, value).axes.values())
+               for key, value in technique.pairs() if key == "diffuse")
     assert len(got) == want
-    assert {c["realtime.diffuse"] for c in got} == {v for k, v in technique.REGISTRY if k == "diffuse"}
+    assert {c["realtime.diffuse"] for c in got} == {v for k, v in technique.pairs() if k == "diffuse"}
     assert all(("realtime.sh_order" in c) == (c["realtime.diffuse"] == "sh") for c in got)
     assert not any("realtime.glossy" in c for c in got)  # sphere-diffuse has no glossy effect
 

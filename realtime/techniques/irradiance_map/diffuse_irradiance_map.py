@@ -14,6 +14,7 @@ import moderngl
 
 from realtime.engine import levels
 from realtime.engine.technique import Frame, Technique, set_uniform
+from realtime.techniques.irradiance_map.irradiance_convolution import IrradianceConvolver
 
 IRRADIANCE_UNIT = 2
 
@@ -30,8 +31,6 @@ class IrradianceMapDiffuse(Technique):
         return self.source_level
 
     def prepare(self, frame: Frame) -> None:
-        from realtime.techniques.irradiance_map.irradiance_convolution import IrradianceConvolver
-
         self.convolver = IrradianceConvolver(frame.ctx, self.size, self.source_size)
 
     def update(self, frame: Frame) -> None:

@@ -20,6 +20,7 @@ import moderngl
 
 from realtime.engine import levels
 from realtime.engine.technique import Frame, Technique, set_uniform
+from realtime.techniques.prefiltered.prefilter import PhongPrefilter
 
 PREFILTERED_UNIT = 3
 
@@ -40,8 +41,6 @@ class PrefilteredGlossy(Technique):
         return int(math.floor(self.lods[exponent]))
 
     def prepare(self, frame: Frame) -> None:
-        from realtime.techniques.prefiltered.prefilter import PhongPrefilter
-
         base = frame.scene.realtime.base_size
         for n in self.lods:
             self.chains[n] = PhongPrefilter(frame.ctx, base, n, self.params.samples, self.params.bias)

@@ -24,7 +24,10 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from realtime.engine.environment_maps import MapShProjector
+from realtime.engine.sh_orders import ShProjector
 from realtime.engine.technique import NO_CUBE, Frame, Technique
+from realtime.techniques.prt.prt_transfer import TransferObject, cached_transfer
 from realtime.techniques.prt.settings import effective_settings
 from scenes.environment import shbasis
 
@@ -33,8 +36,6 @@ TRANSFER_BINDING = 7
 
 def transfer_objects(scene) -> list:
     """The scene's objects as the precomputation's input (world-space arrays, each object's kd)."""
-    from realtime.techniques.prt.prt_transfer import TransferObject
-
     return [TransferObject(o.mesh.positions.astype(np.float64), o.mesh.normals.astype(np.float64), o.mesh.indices,
                            tuple(float(c) for c in o.material.kd), bool(o.material.two_sided))
             for o in scene.objects]
@@ -50,20 +51,14 @@ class PrtDiffuse(Technique):
         self.info: dict = {}
 
     def prepare(self, frame: Frame) -> None:
-        from realtime.techniques.prt.prt_transfer import cached_transfer
-
         s = self.settings
         transfers, self.info = cached_transfer(transfer_objects(frame.scene), s.order, s.rays, s.bounces, s.shadowed,
                                                progress=True)
         for i, t in enumerate(transfers):
             self.buffers[i] = frame.ctx.buffer(np.ascontiguousarray(t, dtype="f4").tobytes())
         if frame.scene.realtime.parameterization == "cube":
-            from realtime.engine.sh_orders import ShProjector
-
             self.projector = ShProjector(frame.ctx, self.order)
         else:
-            from realtime.engine.environment_maps import MapShProjector
-
             self.projector = MapShProjector(frame.ctx, self.order)
 
     def update(self, frame: Frame) -> None:

@@ -73,8 +73,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from rich import progress as rp
+from rich.console import Console
+from scipy import sparse
 
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
+from scenes.storage.disk_cache import CacheWarning, cache_dir, write_npz
 
 #: bump when the transfer computed for the same inputs changes (invalidates the cache)
 TRANSFER_VERSION = 1
@@ -179,10 +183,10 @@ def _directions(n: np.ndarray, shifts: np.ndarray, lattice: np.ndarray) -> np.nd
 
 def _intersector(vertices: np.ndarray, faces: np.ndarray):
     """(trimesh.Trimesh, its Embree intersector); RuntimeError without embreex."""
-    import trimesh
+    import trimesh  # deferred: heavy (about 0.3 s), only the precomputation needs it
 
     try:
-        from trimesh.ray import ray_pyembree
+        from trimesh.ray import ray_pyembree  # deferred: embreex is optional; refused with a reason below
     except ImportError as exc:
         raise RuntimeError("PRT visibility needs Embree: the embreex package is missing (pip install embreex); "
                            "there is no slow fallback") from exc
@@ -197,9 +201,6 @@ def _intersector(vertices: np.ndarray, faces: np.ndarray):
 def _progress(total: int, enabled: bool):
     if not enabled:
         return contextlib.nullcontext(None)
-    from rich import progress as rp
-    from rich.console import Console
-
     columns = [rp.TextColumn("[bold]prt"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
     # on stderr, and only on a terminal: CI logs and pipes never see the bar
@@ -209,9 +210,7 @@ def _progress(total: int, enabled: bool):
 def _trace(objs: list[_Checked], order: int, rays: int, bounces: int, seed: int, progress: bool,
            base: np.ndarray):
     """Shadowed transfer (V, K) float64 of all vertices, and the gather matrix (V x V CSR) when bounces > 0."""
-    import trimesh
-    from scipy import sparse
-
+    import trimesh  # deferred: heavy (about 0.3 s), only the precomputation needs it
     sizes = [len(o.positions) for o in objs]
     offsets = np.concatenate([[0], np.cumsum(sizes)])
     v_total = int(offsets[-1])
@@ -351,8 +350,6 @@ def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
 
 
 def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] | None:
-    from scenes.storage.disk_cache import CacheWarning
-
     if not path.exists():
         return None
     try:
@@ -371,8 +368,6 @@ def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] 
 
 
 def _store(folder, key: str, arrays: list[np.ndarray], meta: dict) -> bool:
-    from scenes.storage.disk_cache import CacheWarning, write_npz
-
     meta_json = json.dumps(meta, sort_keys=True)
     try:
         write_npz(folder, key, meta=np.array(meta_json), checksum=np.array(_entry_checksum(arrays, meta_json)),
@@ -397,8 +392,6 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     rays_traced is the number of rays the transfer took (vertices x rays when shadowed, else 0), also when it
     came from the cache (then `cached` is True and `seconds` 0: none were traced now).
     """
-    from scenes.storage.disk_cache import cache_dir
-
     _check_settings(int(order), int(rays), int(bounces), shadowed)
     objs = [_check_object(i, o) for i, o in enumerate(objects)]  # validate before hashing
     key = transfer_key(objects, order, rays, bounces, shadowed, seed)

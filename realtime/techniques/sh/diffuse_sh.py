@@ -14,7 +14,12 @@ from __future__ import annotations
 
 import moderngl
 
+from realtime.engine import sh
+from realtime.engine.environment_maps import MapShProjector
+from realtime.engine.sh_orders import ShProjector
 from realtime.engine.technique import Frame, Technique
+from realtime.techniques.sh import deringing
+from realtime.techniques.sh.deringing import min_irradiance
 from scenes.environment import shbasis
 
 
@@ -26,19 +31,12 @@ class ShDiffuse(Technique):
         self.projector = None
 
     def prepare(self, frame: Frame) -> None:
-        from realtime.engine import sh
-        from realtime.techniques.sh import deringing
-
         scene = frame.scene
         coeffs = sh.project_equirect(scene.environment.radiance(), scene.environment.rotation_deg, order=self.order)
         self.window = deringing.choose(scene.realtime.sh_window, coeffs)
         if self.order != 2 and scene.realtime.parameterization == "cube":
-            from realtime.engine.sh_orders import ShProjector
-
             self.projector = ShProjector(frame.ctx, self.order)
         elif self.order != 2:  # a 2D parameterization (realtime/engine/environment_maps.py)
-            from realtime.engine.environment_maps import MapShProjector
-
             self.projector = MapShProjector(frame.ctx, self.order)
 
     def update(self, frame: Frame) -> None:
@@ -65,8 +63,6 @@ class ShDiffuse(Technique):
         return self.projector.read()[0]
 
     def meta(self) -> dict:
-        from realtime.techniques.sh.deringing import min_irradiance
-
         w = self.window
         coeffs = self.coefficients()
         return {"sh_order": self.order, "sh_coeffs": coeffs.tolist(),

@@ -27,6 +27,7 @@ import numpy as np
 from realtime.engine.gpu import shader_source
 from realtime.engine.technique import NO_CUBE, Frame, Technique, set_uniform
 from realtime.techniques.lights.lights import shared_array
+from scenes import InputError
 
 NORMAL_OFFSET_TEXELS = 1.5
 DEPTH_BIAS_TEXELS = 1.0
@@ -80,8 +81,6 @@ class ShadowMaps(Technique):
         side = self.tiles * self.size
         limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
         if side > limit:
-            from scenes import InputError
-
             raise InputError(f"realtime.lights.count = {self.count} with realtime.lights.shadow_map_size = "
                              f"{self.size}: a {side}x{side} shadow atlas is beyond this GL's largest texture "
                              f"({limit}); fewer lights or smaller maps")
