@@ -1,4 +1,4 @@
-"""The paper's reflectance as a Mitsuba 3 BSDF plugin, `iblcheck_paper` (design.md section 3).
+"""The paper's reflectance as a Mitsuba 3 BSDF plugin, `iblcheck_paper` (docs/design.md section 3).
 
 Local frame: the shading normal is +Z, `si.wi` points towards the viewer (v), `wo` towards the
 light (l). Per unit projected solid angle the BSDF value times cos(theta_o) is
@@ -8,7 +8,7 @@ light (l). Per unit projected solid angle the BSDF value times cos(theta_o) is
 with r = (-wi.x, -wi.y, wi.z) the mirror of v, F = f0 + (1 - f0)(1 - clamp(wi.z, 0, 1))^5 for
 `blend`, F = 0 for `diffuse`, F = 1 for `phong` (the same clamp as the real-time shader).
 
-One-sided (scenes/model/materials.py, issue 11): the value is 0 for cos_i = wi.z <= 0, a viewer behind the
+One-sided (scenes/model/materials.py): the value is 0 for cos_i = wi.z <= 0, a viewer behind the
 shading normal (the back of a surface, or a silhouette where the interpolated normal has turned away),
 as Mitsuba's own one-sided BSDFs are and as the real-time shader draws it. `material.two_sided` wraps
 this plugin in Mitsuba's `twosided`, which flips wi and wo there instead (groundtruth/pathtracer/mitsuba_scene.py).
@@ -31,7 +31,7 @@ from scenes.model import materials
 
 PLUGIN_NAME = "iblcheck_paper"
 #: bump when the plugin's math or sampling changes: it is part of the reference cache key
-#: (4: zero for a viewer behind the shading normal, issue 11)
+#: (4: zero for a viewer behind the shading normal)
 PLUGIN_VERSION = 4
 
 _registered = False

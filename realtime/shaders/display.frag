@@ -1,5 +1,5 @@
 #version 430
-// Display pass: Reinhard photographic tone mapping, then sRGB (mirrors scenes/tonemap.py).
+// Display pass: Reinhard photographic tone mapping, then sRGB (mirrors scenes/model/tonemap.py).
 in vec2 v_ndc;
 uniform sampler2D hdr;
 uniform float scale;   // key / L_avg * 2^exposure

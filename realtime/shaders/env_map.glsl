@@ -1,6 +1,6 @@
-// The environment stored as a 2D parameterization (realtime/parameterizations.py), read by the glossy
+// The environment stored as a 2D parameterization (realtime/engine/environment_maps.py), read by the glossy
 // lookup: ENV_DUAL_PARABOLOID (two maps in a texture array, world-fixed frame) or ENV_SPHERE_MAP (one
-// map, the capture view's eye space); mirrors scenes/paraboloid.py and scenes/spheremap.py.
+// map, the capture view's eye space); mirrors scenes/environment/paraboloid.py and scenes/environment/spheremap.py.
 // The LOD rule is in solid angle, so that a LOD means the same blur on every parameterization: the
 // host's LOD is a level of the cube map (whose mean texel at level l covers Omega_ref 4^l, Omega_ref =
 // 4 pi / (6 base^2)); here the texel under the lookup covers dOmega/dA(p) A0 4^l (A0: the plane area

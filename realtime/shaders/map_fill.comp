@@ -1,6 +1,6 @@
 #version 430
 // Fill the base level of a 2D environment parameterization (dual paraboloid: 2 layers, sphere map:
-// 1; realtime/parameterizations.py): each texel gets the environment's radiance along its world
+// 1; realtime/engine/environment_maps.py): each texel gets the environment's radiance along its world
 // direction, the environment turned about +Y by u_shift = rotation_deg / 360 (env_to_cube.comp's rule).
 // Each texel's (u, v) is computed once in float64 (texel_uv, one row block per layer).
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;

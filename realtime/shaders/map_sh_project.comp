@@ -1,8 +1,8 @@
 #version 430
-// SH projection of one level of a 2D parameterization (realtime/parameterizations.py), pass 1, any
+// SH projection of one level of a 2D parameterization (realtime/engine/environment_maps.py), pass 1, any
 // order (SH_ORDER 2..4 from scenes.shbasis.glsl_defines): every texel adds L(w) Y_k(w) dOmega(w),
 // with its world direction w and its exact solid angle (zero outside the disc) from texel_dir,
-// computed in float64 by numpy (scenes/paraboloid.py, scenes/spheremap.py). Blocks of
+// computed in float64 by numpy (scenes/environment/paraboloid.py, scenes/environment/spheremap.py). Blocks of
 // block x block texels per invocation, an 8x8 workgroup reduction, SH_COUNT partial sums per group:
 // the layout sh_reduce.comp (order 2, the paper's M) and sh_reduce_n.comp read.
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;

@@ -1,5 +1,5 @@
 // Real SH basis of bands 0..SH_ORDER (2, 3 or 4) at a unit world direction; mirrors
-// scenes/shbasis.py (sh_basis) exactly: coefficient k = l^2 + l + m, the "z-up" functions on world
+// scenes/environment/shbasis.py (sh_basis) exactly: coefficient k = l^2 + l + m, the "z-up" functions on world
 // (x, y, z), no Condon-Shortley phase. Every constant comes from the host as a #define
 // (scenes.shbasis.glsl_defines(order)): SH_ORDER, SH_COUNT, SH_C0..SH_C4 (bands 0-2, the paper's
 // literals), SH_K3m / SH_K4m (bands 3, 4) and the clamped-cosine factors SH_A0..SH_A<order>.

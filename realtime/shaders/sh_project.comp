@@ -2,7 +2,7 @@
 // SH9 projection, pass 1: every texel of the selected level adds L(w) Y_lm(w) dOmega(w). Each
 // invocation sums a block of block x block texels in registers, then the 8x8 workgroup reduces in
 // shared memory and writes 9 RGB partial sums (fewer barrier phases: they are costly on llvmpipe).
-// The basis constants SH_C0..SH_C4 are #defined by the host from scenes/shbasis.py.
+// The basis constants SH_C0..SH_C4 are #defined by the host from scenes/environment/shbasis.py.
 // dOmega comes from a texture of exact texel solid angles (computed in float64 by numpy: the
 // atan2 corner formula loses precision in float32 on fine faces).
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;  // 64 x 9 x vec3 fits 32 KiB shared

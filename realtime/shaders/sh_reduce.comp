@@ -29,7 +29,7 @@ void main() {
         L[k] = acc[0][k] * window[band];
         coeffs[k] = vec4(L[k], 0.0);
     }
-    // c1..c5 of eq. 12 (c5 = c3 / 3, not the paper's misprint), #defined by the host from realtime/sh.py
+    // c1..c5 of eq. 12 (c5 = c3 / 3, not the paper's misprint), #defined by the host from realtime/engine/sh.py
     const float c1 = SH_M1, c2 = SH_M2, c3 = SH_M3, c4 = SH_M4, c5 = SH_M5;
     for (int ch = 0; ch < 3; ++ch) {
         float L00 = L[0][ch], L1m1 = L[1][ch], L10 = L[2][ch], L11 = L[3][ch];

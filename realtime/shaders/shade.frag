@@ -13,7 +13,7 @@ uniform int material_type;  // MATERIAL_DIFFUSE, MATERIAL_PHONG, MATERIAL_BLEND
 uniform vec3 kd;
 uniform vec3 ks;
 uniform float f0;
-uniform int two_sided;  // material.two_sided (scenes/materials.py): 0 one-sided, 1 two-sided
+uniform int two_sided;  // material.two_sided (scenes/model/materials.py): 0 one-sided, 1 two-sided
 out vec4 frag;
 const float PI = 3.14159265358979323846;
 // the fragment's shading normal (unit, facing the viewer), for techniques that need more than their
@@ -31,7 +31,7 @@ void main() {
     float len = length(n);
     n = len > 0.0 ? n / len : vec3(0.0, 1.0, 0.0);
     vec3 v = normalize(camera_position - v_position);
-    // Back faces and silhouettes, one rule for both renderers (scenes/materials.py): where the shading
+    // Back faces and silhouettes, one rule for both renderers (scenes/model/materials.py): where the shading
     // normal faces away from the viewer, a one-sided material is black (its reference BSDF is zero for
     // n.v <= 0) and a two-sided one is shaded with the normal flipped (Mitsuba's twosided).
     if (dot(n, v) <= 0.0) {

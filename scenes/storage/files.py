@@ -1,4 +1,4 @@
-"""Input files and atomic output files, with clear reasons when a path cannot be used (issue 11).
+"""Input files and atomic output files, with clear reasons when a path cannot be used.
 
 - `input_problem(path)`: why a path cannot be read as an input file (a folder, a device, a named
   pipe, a symbolic link loop, a broken link, no permission, a NUL in the name, ...), or None.

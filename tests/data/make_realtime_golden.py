@@ -1,6 +1,6 @@
 """Regenerate tests/data/realtime_golden.npz: the real-time image of every builtin scene (and a few
-paper-knob variants) at 48x48, as the paper's method rendered them before the techniques refactor
-(issue 10). tests/realtime/test_golden.py asserts today's renderer is bit-identical to them on
+paper-knob variants) at 48x48, as the paper's method rendered them before the techniques refactor.
+tests/realtime/test_golden.py asserts today's renderer is bit-identical to them on
 Mesa llvmpipe. Only rerun this when a change to the paper's own images is intended.
 
     .venv/bin/python tests/data/make_realtime_golden.py

@@ -1,4 +1,4 @@
-"""The `iblcheck_paper` plugin: its values against design.md section 3 written out here, and its
+"""The `iblcheck_paper` plugin: its values against docs/design.md section 3 written out here, and its
 sampling against Mitsuba's own chi-square test (`mitsuba.chi2`)."""
 
 from __future__ import annotations
@@ -66,9 +66,9 @@ def _eval(mi, material, wi, wo):
 
 
 def _design_formula(material, wi, wo):
-    """f cos of design.md section 3, written out independently of the plugin and reflectance.py."""
+    """f cos of docs/design.md section 3, written out independently of the plugin and reflectance.py."""
     cos_o = wo[:, 2]
-    if wi[2] <= 0:  # one-sided (issue 11): a viewer behind the shading normal sees black
+    if wi[2] <= 0:  # one-sided: a viewer behind the shading normal sees black
         return np.zeros((len(wo), 3))
     c = min(max(wi[2], 0.0), 1.0)
     F = {"diffuse": 0.0, "phong": 1.0}.get(material.type, material.f0 + (1 - material.f0) * (1 - c) ** 5)
@@ -98,7 +98,7 @@ def test_eval_matches_the_design_formula(mi, rng, material, wi):
     assert np.isfinite(pdf).all() and (pdf >= 0).all()
     assert (pdf[wo[:, 2] <= 0] == 0).all()
     if wi[2] <= 0:
-        return  # a viewer behind the shading normal: the back-face rule (issue 11), not this test's
+        return  # a viewer behind the shading normal: the back-face rule, not this test's
     # the pdf is the mixture the sampler draws from: the cosine lobe with probability p_d, the Phong lobe
     # otherwise, p_d = (1 - F) mean(kd) / ((1 - F) mean(kd) + F mean(ks)) (lobe energies as sampling weights)
     c = min(max(wi[2], 0.0), 1.0)
@@ -143,7 +143,7 @@ def test_sample_weights_are_f_cos_over_pdf_and_average_to_the_albedo(mi, exponen
     np.testing.assert_allclose(weight[ok], value[ok] / pdf[ok, None], rtol=1e-5)
     assert (weight[~ok] == 0).all()
     if cos_i <= 0:
-        return  # grazing or behind the shading normal: the back-face rule (issue 11), not this test's
+        return  # grazing or behind the shading normal: the back-face rule, not this test's
     F = 0.04 + 0.96 * (1 - cos_i) ** 5
     frac = float(horizon_fraction(np.array(cos_i), exponent))
     albedo = (1 - F) * np.asarray(material.kd) + F * 1.0 * frac

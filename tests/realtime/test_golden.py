@@ -1,4 +1,4 @@
-"""The paper's images do not change (issue 10): every builtin scene and a few paper-knob variants,
+"""The paper's images do not change: every builtin scene and a few paper-knob variants,
 rendered in real time at 48x48, are bit-identical to the images the paper's method produced before
 the techniques refactor (tests/data/realtime_golden.npz, made by tests/data/make_realtime_golden.py).
 
@@ -7,7 +7,7 @@ in float32 inside shade.frag and is now computed once in float64 on the host (re
 issue asks); the two differ in the last bit of the LOD, which moves trilinear weights by ~1e-7, so
 that case must agree to 1e-6 relative, not bit for bit (measured: 2.4e-7).
 
-Regenerated once since, for issue 11's back-face rule (black where the shading normal faces away from the
+Regenerated once since, for the back-face rule (black where the shading normal faces away from the
 viewer): 3 of teapot-blend's 434 covered pixels, back faces seen through the open teapot that were dark
 (at most 0.02) before, are now 0; nothing else changed (the McGuire case is now stored as it renders).
 

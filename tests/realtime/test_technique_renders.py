@@ -1,4 +1,4 @@
-"""Rendered images of the non-paper techniques against independent expectations (issue 10).
+"""Rendered images of the non-paper techniques against independent expectations.
 
 - A constant environment of radiance 1 must give exactly kd (diffuse) and ks (glossy) for every
   technique and parameter: any normalisation slip shows here.

@@ -1,4 +1,4 @@
-"""The 2D environment parameterizations' numpy halves (issue 13): dual paraboloid and sphere map.
+"""The 2D environment parameterizations' numpy halves: dual paraboloid and sphere map.
 
 Independent expectations: round trips; the paraboloid's directions from the mirror reflection of its
 axis about the surface f = 1/2 - r^2/2 (Heidrich & Seidel); the sphere map's (s, t) from OpenGL's

@@ -2,7 +2,7 @@
 // The paper's glossy term: the 2x2-box chain read at a LOD computed on the host per object
 // (realtime.levels.glossy_lod: level(s) + offset(N) + lod_bias, clamped to the chain).
 #if defined(ENV_DUAL_PARABOLOID) || defined(ENV_SPHERE_MAP)
-// A 2D parameterization of the environment (realtime/parameterizations.py): the host's LOD, unclamped,
+// A 2D parameterization of the environment (realtime/engine/environment_maps.py): the host's LOD, unclamped,
 // becomes the level of equal solid angle under the lookup (env_map.glsl).
 #include "env_map.glsl"
 uniform float glossy_lod;

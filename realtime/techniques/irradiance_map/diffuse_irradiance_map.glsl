@@ -1,5 +1,5 @@
 #ifdef DIFFUSE_IRRADIANCE_MAP
-// The exact cosine convolution of the environment, stored by normal (realtime/irradiance_map.py).
+// The exact cosine convolution of the environment, stored by normal (realtime/techniques/irradiance_map/irradiance_convolution.py).
 uniform samplerCube irradiance_cube;
 
 vec3 diffuse_irradiance(vec3 n) {

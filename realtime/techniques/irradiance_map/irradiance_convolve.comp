@@ -1,5 +1,5 @@
 #version 430
-// Irradiance map, pass 2 (realtime/irradiance_map.py): for every output texel direction n,
+// Irradiance map, pass 2 (realtime/techniques/irradiance_map/irradiance_convolution.py): for every output texel direction n,
 //     E(n) = sum_texels L(w) max(n.w, 0) dOmega(w)
 // over every texel of the source level (packed by irradiance_pack.comp); with NORMALIZE divided by
 // the discrete kernel mass: E = pi sum(L c dOmega) / sum(c dOmega), c = max(n.w, 0).

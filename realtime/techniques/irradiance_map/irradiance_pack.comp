@@ -1,5 +1,5 @@
 #version 430
-// Irradiance map, pass 1 (realtime/irradiance_map.py): pack the source level for the convolution.
+// Irradiance map, pass 1 (realtime/techniques/irradiance_map/irradiance_convolution.py): pack the source level for the convolution.
 // Each source texel t becomes two vec4s, (w dOmega, dOmega) and (L, 1), in a buffer that pass 2
 // streams through (on llvmpipe, buffer reads at a loop-uniform index are cheap; image loads and
 // shared-memory tiles with their barriers cost 3x more).

@@ -1,5 +1,5 @@
 #version 430
-// The light array's powers, every frame (realtime/lights.py, scenes/light_array.py): light i carries
+// The light array's powers, every frame (realtime/techniques/lights/lights.py, scenes/environment/light_array.py): light i carries
 // sum over the texels of its region of L(texel) dOmega(row), the environment's radiance integrated
 // over its spherical Voronoi cell (geodesic) or median-cut rectangle, so the powers sum to the map's
 // integral. One work group per light: its threads stride over the light's texel list, then a tree

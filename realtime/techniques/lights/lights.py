@@ -1,4 +1,4 @@
-"""The light array on the GPU: `realtime.diffuse = "lights"` and `realtime.glossy = "lights"` (seed 004).
+"""The light array on the GPU: `realtime.diffuse = "lights"` and `realtime.glossy = "lights"`.
 
 The environment is stood in for by N distant lights (scenes/environment/light_array.py: geodesic or median-cut
 placement, each light carrying the radiance of its own region of the map, so their powers sum to

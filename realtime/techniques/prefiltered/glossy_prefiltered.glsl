@@ -1,5 +1,5 @@
 #ifdef GLOSSY_PREFILTERED
-// The chain prefiltered with this object's Phong lobe (realtime/prefilter.py), read at the level
+// The chain prefiltered with this object's Phong lobe (realtime/techniques/prefiltered/prefilter.py), read at the level
 // the host chose for its exponent.
 uniform samplerCube prefiltered_cube;
 uniform float prefiltered_lod;

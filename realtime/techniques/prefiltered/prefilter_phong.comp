@@ -1,5 +1,5 @@
 #version 430
-// One level of the Phong-prefiltered cube map (realtime/prefilter.py): each texel, direction r, gets
+// One level of the Phong-prefiltered cube map (realtime/techniques/prefiltered/prefilter.py): each texel, direction r, gets
 //     G(r) = int L(l) (N + 1) / (2 pi) max(r.l, 0)^N dl
 // estimated by importance sampling the normalised lobe itself, so every sample has weight
 // f / pdf = 1 and G is the mean of the samples (the horizon cut is ignored, as in the paper's chain).

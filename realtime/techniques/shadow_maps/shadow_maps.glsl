@@ -1,5 +1,5 @@
 #ifdef OCCLUSION_SHADOW_MAPS
-// Shadow maps of the light array (realtime/shadow_maps.py): one orthographic depth map per light,
+// Shadow maps of the light array (realtime/techniques/shadow_maps/shadow_maps.py): one orthographic depth map per light,
 // tiled in one depth atlas; percentage-closer filtering with the hardware's bilinear depth compare
 // (sampler2DShadow, LINEAR) at 2x2 taps half a texel apart: a 3x3-texel tent.
 layout(std430, binding = 6) readonly buffer ShadowMatrices { mat4 shadow_matrix[]; };  // world -> light NDC

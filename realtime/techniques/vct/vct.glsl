@@ -1,5 +1,5 @@
 #if defined(VCT_OCCLUSION) || defined(VCT_INTERREFLECTION)
-// Voxel cone tracing in the shading pass (realtime/vct.py): `occlusion = "vct"` multiplies the
+// Voxel cone tracing in the shading pass (realtime/techniques/vct/vct.py): `occlusion = "vct"` multiplies the
 // environment's diffuse irradiance by the diffuse cones' visibility and its glossy radiance by the
 // glossy cone's; `interreflection = "vct"` adds what the same cones gather from the voxels, through
 // the paper's reflectance (L_d = kd / pi E, L_g = ks L).

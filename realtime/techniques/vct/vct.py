@@ -1,4 +1,4 @@
-"""Voxel cone tracing through cascaded anisotropic voxel textures (seed 001): `realtime.occlusion = "vct"`,
+"""Voxel cone tracing through cascaded anisotropic voxel textures: `realtime.occlusion = "vct"`,
 `realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step`.
 
 The voxel scene (`VoxelScene`, one per frame in `frame.shared["vct"]`, made by whichever VCT technique

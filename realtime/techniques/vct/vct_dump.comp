@@ -1,5 +1,5 @@
 #version 430
-// Read-back of one mip level of one face texture (realtime/vct.py VoxelScene.read_faces: tests).
+// Read-back of one mip level of one face texture (realtime/techniques/vct/vct.py VoxelScene.read_faces: tests).
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(rgba16f, binding = 0) uniform readonly image3D src;
 layout(std430, binding = 1) writeonly buffer Out { vec4 texels[]; };

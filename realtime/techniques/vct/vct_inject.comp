@@ -1,5 +1,5 @@
 #version 430
-// Per voxel of one cascade (realtime/vct.py), level 0 of the six face textures.
+// Per voxel of one cascade (realtime/techniques/vct/vct.py), level 0 of the six face textures.
 // OCCUPANCY pass: alpha = 1 where a triangle touched the voxel, rgb = 0 (the opacity the visibility
 // cones of the INJECT pass trace through, after its mips are built).
 // INJECT pass: each face f that some triangle faces (weight W_f = sum max(0, n . a_f) > 0) gets the

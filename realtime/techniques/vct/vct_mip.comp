@@ -1,5 +1,5 @@
 #version 430
-// One level of one face texture's anisotropic mip (realtime/vct.py; vct_math.anisotropic_mip): for
+// One level of one face texture's anisotropic mip (realtime/techniques/vct/vct.py; vct_math.anisotropic_mip): for
 // face direction s e_a, the 2x2x2 children pair up along axis a, the child on the s side in front:
 // c = c_front + (1 - a_front) c_back (front to back, premultiplied); the four pairs are averaged.
 // Cascades are stacked along z, each R_L deep at level L: children never cross a cascade.

@@ -1,5 +1,5 @@
 #version 430
-// Test and measurement probe (realtime/vct.py VoxelScene.probe): the diffuse cones at given points and
+// Test and measurement probe (realtime/techniques/vct/vct.py VoxelScene.probe): the diffuse cones at given points and
 // normals, as the shading pass traces them: (gathered irradiance, visibility) per point.
 layout(local_size_x = 64) in;
 layout(std430, binding = 0) readonly buffer Points { vec4 points[]; };  // (x, 0), (n, 0) pairs

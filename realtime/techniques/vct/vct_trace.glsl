@@ -1,4 +1,4 @@
-// Voxel cone tracing through cascaded anisotropic voxel textures (realtime/vct.py, realtime/vct_math.py).
+// Voxel cone tracing through cascaded anisotropic voxel textures (realtime/techniques/vct/vct.py, realtime/techniques/vct/vct_math.py).
 // Six 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel toward it),
 // each holding every cascade stacked along z (cascade c in slab [c, c+1) / C), each with its own
 // anisotropic mip chain. rgb is radiance premultiplied by alpha, a the opacity.

@@ -1,5 +1,5 @@
 #version 430
-// Voxelisation of the scene's triangles into one cascade (realtime/vct.py): one invocation per
+// Voxelisation of the scene's triangles into one cascade (realtime/techniques/vct/vct.py): one invocation per
 // triangle visits the voxels of its bounding box and keeps those the triangle overlaps (the
 // separating-axis triangle/box test of Akenine-Moller 2001: conservative). Per voxel, integer atomics
 // accumulate: the triangle count, the albedo, and for each of the six face directions a_f the
