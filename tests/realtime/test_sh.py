@@ -12,7 +12,8 @@ from scenes.environment import cubemap, environments, envmap
 from scenes.environment.directions import uv_to_direction
 from scenes.environment.shbasis import sh9
 
-# Ramamoorthi & Hanrahan 2001, Uffizi probe, their frame (shared/data/probes/README.md)
+# Ramamoorthi & Hanrahan 2001 ("An efficient representation for irradiance environment maps"), their table
+# of the Uffizi probe's nine lighting coefficients, in their probe frame
 RH_UFFIZI = np.array([
     [0.3168843, 0.3073441, 0.3495361], [0.3711289, 0.3682168, 0.4292092],
     [-0.0034406, -0.0031891, -0.0039797], [-0.0084237, -0.0087049, -0.0116718],
