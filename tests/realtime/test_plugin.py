@@ -178,3 +178,33 @@ def test_a_broken_plugin_is_one_line_and_the_builtins_still_work(tmp_path, edit,
     assert f"'{DIST}'" in lines[0] and says in lines[0], lines[0]
     ok = iblcheck(site, "render", "builtin:sphere-diffuse", *SMALL, "-o", str(tmp_path / "b.exr"), cwd=tmp_path)
     assert ok.returncode == 0 and not ok.stderr.strip(), ok.stderr
+
+
+def test_the_e7_ladder_takes_the_plugin_like_a_builtin(site, tmp_path):
+    """E7 (experiments/paper/e07_accuracy_time_ladder.py) lists the plugin's ladder point on the scene of its
+    effect, after the builtin points, which stay as they are without the plugin (their row ids)."""
+    code = ("import json; from experiments.paper import e07_accuracy_time_ladder as e7; p = e7.plugin_points(); "
+            "print(json.dumps([e7.configs_for(label, e7.QUICK, p) for label, _, _ in e7.scene_list()]))")
+    def configs(pythonpath: str) -> list:
+        out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
+                             env={**os.environ, "PYTHONPATH": pythonpath})
+        return json.loads(out.stdout)
+
+    with_plugin, without = configs(f"{site}{os.pathsep}{ROOT}"), configs(str(ROOT))
+    assert with_plugin[0] == without[0] + [{"realtime.diffuse": "hemisphere"}]  # sphere-diffuse
+    assert with_plugin[1:] == without[1:]  # a diffuse technique adds nothing to the glossy scenes
+
+
+@pytest.mark.slow
+@pytest.mark.mitsuba
+def test_an_e7_row_of_the_plugin_is_measured(site, tmp_path):
+    """One E7 row of the plugin, through the row runner every experiment uses (experiments.paper.context)."""
+    code = ("import json; from pathlib import Path; from experiments.paper.context import Common, Context; "
+            "c = Context(Path('out'), Common(size=32, spp=16, frames=1), lambda: None); "
+            "r = c.row('builtin:sphere-diffuse', {'realtime.diffuse': 'hemisphere'}, 'E7'); "
+            "print(json.dumps([r.techniques['diffuse'], r.psnr, r.realtime_ms['total']]))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
+                         env={**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}",
+                              "IBLCHECK_CACHE": str(tmp_path / "cache")}, timeout=600)
+    diffuse, psnr, total_ms = json.loads(out.stdout.strip().splitlines()[-1])
+    assert diffuse == "hemisphere" and 10.0 < psnr < 60.0 and total_ms > 0.0
