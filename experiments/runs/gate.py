@@ -75,8 +75,10 @@ When the identity differs (the reference, the GL renderer, the techniques, iblch
 setting), a `warning:` line says what: the comparison is then less tight (another GL renders another
 image; another reference takes the different-references branch). A scene missing from the baseline
 fails, as a missing golden image does in CI (`--write-baseline` adds it); baseline scenes not run are
-listed in a note. A baseline file that is missing, unreadable, not JSON, holds NaN or Infinity or a
-field of the wrong type is a `BaselineError` naming the file and the field (exit 2).
+listed in a note. A baseline file that is missing, unreadable, not JSON, holds NaN or Infinity, a
+field of the wrong type or a number without meaning (a negative standard error, a PSNR outside
+[0, 100], metrics of 0 pixels, a negative time: experiments/measure/fields.py) is a `BaselineError`
+naming the file and the field (exit 2).
 """
 
 from __future__ import annotations
@@ -98,7 +100,7 @@ import numpy as np
 import groundtruth
 import realtime
 import scenes
-from experiments.measure import comparison, metrics
+from experiments.measure import comparison, fields, metrics
 from experiments.measure.pair import measure_pair
 from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
@@ -118,6 +120,9 @@ BLOCK = 16
 MAX_BASELINE_BYTES = 64 << 20
 #: the metrics a baseline compares, and the direction in which each gets worse
 BASELINE_METRICS = (("psnr", "dB", -1), ("ssim", "", -1), ("flip", "", +1))
+#: a record's numbers whose meaning is checked on reading (experiments/measure/fields.py), beside `pixels`
+RECORD_NUMBERS = ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
+                  "flip_noise_slope")
 
 
 class BaselineError(InputError):
@@ -575,12 +580,6 @@ def read_baseline(path: str | Path) -> dict:
     return {**tree, "path": str(path)}
 
 
-def _number(value: Any, nullable: bool = True) -> bool:
-    if value is None:
-        return nullable
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _check_entry(path: Path, key: str, entry: Any) -> None:
     where = f"{path}: scenes[{_short(key)}]"
     if not isinstance(entry, dict):
@@ -588,19 +587,16 @@ def _check_entry(path: Path, key: str, entry: Any) -> None:
     metrics = entry.get("metrics")
     if not isinstance(metrics, dict):
         raise BaselineError(f"{where}.metrics: missing or not an object")
-    for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
-              "flip_noise_slope"):
-        if not _number(metrics.get(k)):
-            raise BaselineError(f"{where}.metrics.{k}: {_short(metrics.get(k))} is not a finite number or null")
-    pixels = metrics.get("pixels")
-    if not isinstance(pixels, int) or isinstance(pixels, bool) or pixels < 0:
-        raise BaselineError(f"{where}.metrics.pixels: {_short(pixels)} is not a count of pixels")
+    # each number for its meaning (a standard error >= 0, a PSNR in [0, 100], ...): experiments/measure/fields.py
+    fields.check(metrics, RECORD_NUMBERS, f"{where}.metrics", BaselineError)
+    fields.check_pixels(metrics, f"{where}.metrics", BaselineError)
     if metrics.get("psnr") is not None and metrics.get("noise_floor_psnr") is None:
         raise BaselineError(f"{where}.metrics.noise_floor_psnr: null beside a PSNR (the rule needs both)")
     timings = entry.get("timings")
     rt = timings.get("realtime_ms") if isinstance(timings, dict) else None
-    if not isinstance(rt, dict) or "total" not in rt or not _number(rt["total"]) or (rt["total"] or 0) < 0:
-        raise BaselineError(f"{where}.timings.realtime_ms.total: missing or not a finite time >= 0")
+    if not isinstance(rt, dict) or rt.get("total") is None:
+        raise BaselineError(f"{where}.timings.realtime_ms.total: missing; a finite time >= 0 is required")
+    fields.check_timings(rt, f"{where}.timings.realtime_ms", BaselineError)
     for k in ("identity", "settings"):
         if not isinstance(entry.get(k, {}), dict):
             raise BaselineError(f"{where}.{k}: must be an object")
