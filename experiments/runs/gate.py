@@ -98,7 +98,6 @@ from typing import Any
 import numpy as np
 
 import groundtruth
-import realtime
 import scenes
 from experiments.measure import comparison, fields, metrics
 from experiments.measure.pair import measure_pair
@@ -178,7 +177,19 @@ def thresholds_for(scene, cli: dict, required: bool = True) -> dict:
     return out
 
 
-def evaluate(metrics: dict, thresholds: dict) -> list[str]:
+def evaluate(metrics: dict, thresholds: dict, allow_empty: bool = False) -> list[str]:
+    """The failures of one scene's metrics against its thresholds (empty when it passes).
+
+    An empty comparison (`metrics["no_signal"]`, experiments/measure/pair.py: no lit pixel in the
+    reference, too few covered pixels) never passes: it fails with its reason, unless `allow_empty`
+    (the scene's [gate] says `allow_empty = true`), when it passes with nothing to check. A `min_psnr`
+    above the reference's noise floor fails whatever the PSNR, with the spp that would resolve it
+    (`unresolvable`)."""
+    empty = metrics.get("no_signal")
+    if empty:
+        return [] if allow_empty else [
+            f"empty comparison: {empty}; its metrics are null and it cannot pass. If this is expected, "
+            "write allow_empty = true in the scene's [gate] table"]
     failures = []
     for key, metric, op in CHECKS:
         if key not in thresholds:
@@ -188,7 +199,40 @@ def evaluate(metrics: dict, thresholds: dict) -> list[str]:
             failures.append(f"{metric} undefined (no covered pixels), required {op} {limit:g}")
         elif (op == ">=" and value < limit) or (op == "<=" and value > limit):
             failures.append(f"{metric} = {value:.4g}, required {op} {limit:g}")
+    hint = unresolvable(thresholds.get("min_psnr"), metrics.get("noise_floor_psnr"), metrics.get("reference_spp"))
+    if hint:  # replaces the plain PSNR failure: the threshold itself is what is wrong
+        value = metrics.get("psnr")
+        head = "" if value is None else f"psnr = {value:.4g}, required >= {thresholds['min_psnr']:g}: "
+        failures = [f for f in failures if not f.startswith("psnr ")] + [head + hint]
     return failures
+
+
+def spp_for_floor(floor_db: float, spp: int, target_db: float) -> int:
+    """The reference spp whose noise floor reaches `target_db`, a doubling of `spp` (at most 2^24).
+
+    metrics.noise_floor_psnr is PSNR(a, b) + 10 log10(2) for two references a, b of independent seeds:
+    with sigma^2 the noise variance of one reference per value, MSE(a, b) = 2 sigma^2, so the floor is
+    -10 log10(sigma^2), the PSNR of one reference against the truth. A pixel's Monte Carlo estimate
+    averages spp independent samples, so sigma^2 = v / spp: doubling spp halves sigma^2 and raises the
+    floor by 10 log10(2) = 3.01 dB. The floor reaches target_db after
+    ceil((target_db - floor_db) / (10 log10 2)) doublings."""
+    doublings = max(0, math.ceil((target_db - floor_db) / metrics.TWO_RENDERS_DB - 1e-9))
+    return int(min(spp * 2 ** doublings, 1 << 24))
+
+
+def unresolvable(min_psnr: float | None, floor: float | None, spp: int | None) -> str | None:
+    """Why `min_psnr` cannot be checked against a reference with this noise floor, or None.
+
+    Against a reference r = truth + n, a perfect image scores exactly the floor (its MSE is n's
+    variance), and any image at most about that: a threshold above the floor fails every technique,
+    and the gate cannot tell a good one from a bad one. The hint names the floor and the spp at which
+    the floor would reach the threshold (`spp_for_floor`)."""
+    if min_psnr is None or floor is None or floor >= metrics.PSNR_CAP or min_psnr <= floor:
+        return None
+    need = f"; reference.spp = {spp_for_floor(floor, spp, min_psnr)} would resolve it" if spp else ""
+    return (f"min_psnr {min_psnr:g} dB is above the reference's noise floor {floor:.2f} dB"
+            + (f" at {spp} spp" if spp else "") + " (no image can score above the floor; the floor rises "
+            f"3 dB per doubling of spp){need}, or lower min_psnr")
 
 
 # --------------------------------------------------------------------------- loading and measuring
@@ -258,7 +302,7 @@ def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True
     step(f"{name}: reference, second seed")
     reference2 = comparison.second_reference(reference, scene)
     step(f"{name}: real-time")
-    test = realtime.render(scene)
+    test = comparison.render_realtime(scene)
     step(f"{name}: metrics")
     m = measure_pair(test, reference, scene, second_reference=reference2)
     result = comparison.compare(test, reference, scene, reference2, measured=m)
@@ -389,7 +433,12 @@ def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | N
         p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
         m = measure(p.scene, step, noise=noise or baseline is not None)
         record = make_record(p, m)
-        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds), m.seconds, record)
+        allow_empty = p.scene.gate.allow_empty
+        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds, allow_empty),
+                       m.seconds, record)
+        if allow_empty and m.metrics.get("no_signal"):
+            r.warnings.append(f"empty comparison ({m.metrics['no_signal']}) passes: the scene's [gate] says "
+                              "allow_empty = true")
         if baseline is not None:
             entry = baseline["scenes"].get(p.key)
             if entry is None:
