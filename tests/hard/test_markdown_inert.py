@@ -63,6 +63,7 @@ def test_plain_names_stay_readable():
     assert text.md_cell("Café ñandú") == "Café ñandú"
     out = cmarkgfm.github_flavored_markdown_to_html(f"| {text.md_cell('sphere-phong_2.toml')} |\n|---|\n")
     assert "<th>sphere-phong_2.toml</th>" in out
+    assert text.md_cell("sphere-blend") == "sphere-blend"  # a dash inside a name stays as it is
 
 
 def test_gate_markdown_with_a_hostile_scene_renders_inert():
