@@ -50,8 +50,9 @@ def effects_compared(test: Render, reference: Render, scene) -> list[str]:
     both = [e for e in test_missing if e.split()[-1] in ref_missing]
     only_test = [e for e in test_missing if e not in both]
     only_ref = sorted(ref_missing - {e.split()[-1] for e in test_missing})
-    kind = "the quadrature (unoccluded)" if reference.meta.get("renderer") == "quadrature" \
-        else f"the reference ({reference.meta.get('integrator')} integrator)"
+    renderer, integrator = reference.meta.get("renderer"), reference.meta.get("integrator")
+    kind = ("the quadrature (unoccluded)" if renderer == "quadrature"
+            else f"the reference ({integrator} integrator)" if integrator else "the reference")
     out = []
     if only_test:
         out.append(f"the real-time image lacks {', '.join(only_test)}, which {kind} simulates; its error includes "
