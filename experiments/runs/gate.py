@@ -401,7 +401,9 @@ def make_record(planned: Planned, m: Measured) -> dict:
             **m.digests,
         },
         "metrics": {**{k: m.metrics.get(k) for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "psnr_unbiased",
-                                                       "rel_mse", "pixels")}, **m.noise},
+                                                       "rel_mse", "pixels")}, **m.noise,
+                    # why the metrics are null, for an empty comparison only (pair.Measurement.empty)
+                    **({"no_signal": m.metrics["no_signal"]} if m.metrics.get("no_signal") else {})},
         "timings": {"realtime_ms": m.metrics.get("realtime_ms"), "reference_s": m.metrics.get("reference_s"),
                     "seconds": m.seconds},
     }
@@ -540,7 +542,9 @@ def compare_record(record: dict, entry: dict, tolerances: dict) -> tuple[list[De
             continue
         if n is None:
             deltas.append(Delta(metric, b, n, None, True))
-            failures.append(f"{metric} undefined (no covered pixels), baseline {b:.4g}")
+            # an empty comparison now, a measured one in the baseline: a change even where allow_empty
+            why = new.get("no_signal") or "no covered pixels"
+            failures.append(f"{metric} undefined ({why}), baseline {b:.4g}")
             continue
         given = tolerances.get({"psnr": "tolerance_db"}.get(metric, f"tolerance_{metric}"))
         if given is not None:

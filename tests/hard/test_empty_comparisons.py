@@ -170,3 +170,15 @@ def test_camera_inside_a_sphere_fails_the_gate_unless_allowed(tmp_path, monkeypa
     # negative control: the camera outside, the same sphere: measured and passing
     (r,) = gate.compare_all([(_tiny("builtin:sphere-blend"), {"min_psnr": 5.0})], noise=False)
     assert r.passed and r.metrics["psnr"] is not None
+
+
+def test_an_empty_comparison_against_a_measured_baseline_says_why():
+    from tests.experiments.test_gate_baseline import record
+
+    new = record()
+    new["metrics"].update(psnr=None, ssim=None, flip=None, no_signal="no lit pixel in the reference")
+    _, failures, _ = gate.compare_record(new, record(), {})
+    assert failures and all("no lit pixel" in f for f in failures[:3])
+    # negative control: both empty, nothing to compare, nothing fails
+    _, failures, _ = gate.compare_record(new, new, {})
+    assert failures == []
