@@ -202,9 +202,7 @@ def _cmd_compare(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set, args.sanitize)
     with outputs.progress("compare", 4) as step:
         result = gate.measure(scene, step, noise=False).metrics
-    if result["pixels"] == 0:
-        print(f"warning: {one_line(scene.name)}: no pixel is covered in both images (is the object outside the "
-              "view?); the image metrics are undefined (null)", file=sys.stderr)
+    # an empty comparison (no covered or lit pixel) was a `warning:` line of measure_pair's
     print(json.dumps(result, allow_nan=False) if args.json else comparison_table([result]))
     return EXIT_OK
 

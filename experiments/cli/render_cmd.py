@@ -67,7 +67,7 @@ def check_out(plan: outputs.Outputs, out: Path, scene) -> None:
 
 def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set, args.sanitize)
-    out = Path(args.out) if args.out else default_out(scene, args.renderer)
+    out = outputs.file_path(args.out, "-o") if args.out else default_out(scene, args.renderer)
     with outputs.Outputs() as plan:
         check_out(plan, out, scene)
         with outputs.progress("render", 1) as step:

@@ -3,6 +3,7 @@
     compare(test, reference, scene, reference2=None) -> dict           # the keys of `iblcheck compare`
     compare_renders(test, reference, scene, reference2=None) -> Comparison   # the dict and the Measurement
     run(scene) -> Comparison                                              # renders both, then compares
+    render_realtime(scene) -> Render     # realtime.render, its missing-effects warning left to the comparison
 
 Every number comes from one `experiments.measure.pair.measure_pair` of the pair (the display
 transform, the masks, PSNR, psnr_unbiased, SSIM and FLIP with their maps, each once).
@@ -15,6 +16,7 @@ A noise-free reference (the quadrature) has the floor `metrics.PSNR_CAP`.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,6 +29,17 @@ from scenes.model.render import Render
 
 #: a real-time score within this many dB of the noise floor is "at the noise floor"
 AT_FLOOR_DB = 1.0
+
+
+def render_realtime(scene) -> Render:
+    """realtime.render(scene) for a comparison: its own warning ("the scene calls for X, which the chosen
+    real-time techniques do not simulate") is held back, because measure_pair says what the two
+    compared images miss (pair.effects_compared), which depends on the reference too."""
+    from realtime.engine.frame import UnsimulatedEffectWarning  # deferred: the frame module loads OpenGL
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnsimulatedEffectWarning)
+        return realtime.render(scene)
 
 
 def second_reference(reference: Render, scene) -> Render | None:
@@ -43,7 +56,8 @@ def compare(test: Render, reference: Render, scene, reference2: Render | None = 
     Keys: scene, psnr, psnr_unbiased (with psnr_unbiased_clamped), ssim, flip, rel_mse,
     noise_floor_psnr, at_noise_floor, realtime_ms (filter, draw, total and every other per-frame
     key of the techniques, plus precompute), reference_s, reference_spp, pixels,
-    unsimulated_effects. A metric with no pixels is None.
+    unsimulated_effects; and no_signal, why, for an empty comparison only (`pair.Measurement.empty`:
+    too few covered pixels or a black reference). A metric with no pixels is None.
 
     psnr_unbiased subtracts the reference's own noise variance (half the mean squared difference of
     its two seeds) from the MSE (metrics.psnr_unbiased): what a noise-free reference would score.
@@ -74,6 +88,8 @@ def compare(test: Render, reference: Render, scene, reference2: Render | None = 
         "reference_cache": reference.meta.get("cache"),
         "pixels": m.pixels,
         "unsimulated_effects": list(test.meta.get("unsimulated_effects", [])),
+        # only for an empty comparison (metrics.no_signal): why its metrics are None (the gate fails it)
+        **({"no_signal": m.empty} if m.empty else {}),
     }
 
 
@@ -114,4 +130,4 @@ def run(scene, reference: Render | None = None, reference2: Render | None = None
     `reference2`: the noise-floor reference, rendered (cached) here when None."""
     if reference is None:
         reference = groundtruth.render(scene)
-    return compare_renders(realtime.render(scene), reference, scene, reference2)
+    return compare_renders(render_realtime(scene), reference, scene, reference2)

@@ -7,6 +7,8 @@ Conventions:
   masks (AND, eroded by 1 pixel so that silhouette pixels, half object half background, are out).
 - Defined results at the edges, never NaN or Infinity (JSON has neither):
   identical images give `PSNR_CAP` (100 dB); an empty mask gives None for every metric.
+- `no_signal(reference, mask)`: why a comparison would measure nothing (too few pixels, a black
+  reference); experiments/measure/pair.py then reports every metric as None.
 """
 
 from __future__ import annotations
@@ -27,6 +29,30 @@ PSNR_CAP = 100.0
 TWO_RENDERS_DB = 10.0 * math.log10(2.0)
 #: the side of scikit-image's SSIM window (its default, `win_size=7`)
 SSIM_WINDOW = 7
+#: a comparison of fewer covered pixels than this carries no signal (`no_signal`): a 2 x 2 patch is the
+#: least that still shows a gradient; fewer pixels are a silhouette's edge, not an image
+MIN_PIXELS = 4
+#: a reference pixel is lit when one channel of its display value reaches half an 8-bit step: below
+#: it, the pixel is black in every 8-bit picture of the reference
+LIT = 0.5 / 255
+
+
+def no_signal(reference: np.ndarray, mask: np.ndarray, min_pixels: int = MIN_PIXELS) -> str | None:
+    """Why comparing against `reference` (display values) over `mask` would measure nothing, or None.
+
+    A comparison carries no signal when it counts fewer than `min_pixels` pixels, or when no counted
+    pixel of the reference is lit (`LIT`): a black reference matches a black test image with PSNR 100
+    and SSIM 1, which says nothing about the technique (the camera inside a one-sided sphere, a light
+    behind the object). Such a comparison's metrics are None (experiments/measure/pair.py).
+    """
+    n = int(mask.sum())
+    if n == 0:
+        return "no pixel is covered in both images (is the object outside the view?)"
+    if n < min_pixels:
+        return f"{n} covered pixel{'s' * (n != 1)}, fewer than the {min_pixels} a comparison needs"
+    if not (np.asarray(reference)[mask] >= LIT).any():
+        return f"no lit pixel in the reference (all {n} covered pixels display as black)"
+    return None
 
 
 def display(scene, rgb: np.ndarray) -> np.ndarray:

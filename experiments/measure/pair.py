@@ -13,12 +13,61 @@ what they produced.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
 from experiments.measure import metrics
+from groundtruth.pathtracer import mitsuba_scene
 from scenes.model.render import Render
+
+
+class MissingEffects(UserWarning):
+    """The compared images leave out an effect the scene calls for (`effects_compared`)."""
+
+
+def reference_unsimulated(reference: Render, scene) -> list[str]:
+    """The effects the scene calls for that `reference` leaves out, from its meta: Mitsuba's with the
+    direct integrator has no interreflection (groundtruth.pathtracer.mitsuba_scene.unsimulated_effects);
+    the quadrature is unoccluded (no occlusion, no interreflection)."""
+    renderer = reference.meta.get("renderer")
+    if renderer == "reference":
+        return mitsuba_scene.unsimulated_effects(scene, reference.meta.get("integrator"))
+    if renderer == "quadrature" and not reference.meta.get("occlusion", True):
+        return sorted({"occlusion", "interreflection"} & scene.effects)
+    return []
+
+
+def effects_compared(test: Render, reference: Render, scene) -> list[str]:
+    """What the two images miss of the scene's effects, in words, one sentence per case: an effect only
+    the real-time image lacks is in its error; one both lack is not measured at all; one only the
+    reference lacks puts the real-time image's correct effect into the error. The real-time side's
+    list (its meta's `unsimulated_effects`) names lobes ("glossy occlusion"), which count as the
+    effect ("occlusion") when the reference lacks that effect."""
+    test_missing = list(test.meta.get("unsimulated_effects") or [])
+    ref_missing = set(reference_unsimulated(reference, scene))
+    both = [e for e in test_missing if e.split()[-1] in ref_missing]
+    only_test = [e for e in test_missing if e not in both]
+    only_ref = sorted(ref_missing - {e.split()[-1] for e in test_missing})
+    renderer, integrator = reference.meta.get("renderer"), reference.meta.get("integrator")
+    kind = ("the quadrature (unoccluded)" if renderer == "quadrature"
+            else f"the reference ({integrator} integrator)" if integrator else "the reference")
+    out = []
+    if only_test:
+        out.append(f"the real-time image lacks {', '.join(only_test)}, which {kind} simulates; its error includes "
+                   "the missing effect")
+    if both:
+        out.append(f"neither image simulates {', '.join(both)} ({kind} leaves it out too); the comparison does not "
+                   "measure it")
+    if only_ref:
+        out.append(f"{kind} lacks {', '.join(only_ref)}, which the real-time image simulates; the error includes "
+                   "that effect")
+    return out
+
+
+class EmptyComparison(UserWarning):
+    """A comparison whose pixels carry no signal (`metrics.no_signal`): its metrics are None."""
 
 
 @dataclass(frozen=True)
@@ -32,10 +81,11 @@ class Measurement:
     reference2 : ndarray, shape (H, W, 3), float32, or None
         The second reference (another seed) in display values; None for a noise-free reference.
     mask : ndarray of bool, shape (H, W)
-        `metrics.common_mask` of the test's and the reference's coverage: the pixels of every metric.
+        `metrics.common_mask` of the test's and the reference's coverage: the pixels of every metric
+        (`pixels` counts them), except in an empty comparison (`empty`), whose metrics count none.
     noise_mask : ndarray of bool, shape (H, W)
         `mask` and the second reference's coverage: the pixels of `psnr_unbiased` and the noise floor
-        (`mask` itself without a second reference).
+        (`mask` itself without a second reference; empty for an empty comparison).
     psnr, ssim, flip, rel_mse : float or None
         The metrics over `mask` (`rel_mse` of linear radiance); None for an empty mask.
     psnr_unbiased : metrics.UnbiasedPSNR
@@ -50,6 +100,11 @@ class Measurement:
         The pixels `ssim` averages: `mask` without scikit-image's 3-pixel border.
     flip_map : ndarray, shape (H, W)
         The LDR FLIP map of the whole image (`metrics.flip_map`); `flip` is its mean over `mask`.
+    empty : str or None
+        Why the comparison carries no signal (`metrics.no_signal`: too few covered pixels, no lit pixel
+        in the reference), or None. An empty comparison's metrics are all None, an `EmptyComparison`
+        warning says why (printed as a `warning:` line), and the gate fails it unless the scene's
+        [gate] table says `allow_empty = true` (experiments/runs/gate.py).
     """
 
     test: np.ndarray
@@ -66,6 +121,7 @@ class Measurement:
     flip: float | None
     flip_map: np.ndarray
     rel_mse: float | None
+    empty: str | None = None
 
     @property
     def pixels(self) -> int:
@@ -107,8 +163,17 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
     ``mask = metrics.common_mask(test.mask, reference.mask)``. The FLIP map is computed whatever the
     mask (the row's picture shows it); `flip` is None for an empty mask.
     """
-    mask = metrics.common_mask(test.mask, reference.mask)
+    for line in effects_compared(test, reference, scene):
+        warnings.warn(f"{scene.name}: {line}", MissingEffects, stacklevel=2)
+    covered = metrics.common_mask(test.mask, reference.mask)
     a, b = metrics.display(scene, test.rgb), metrics.display(scene, reference.rgb)
+    empty = metrics.no_signal(b, covered)
+    if empty:
+        # user text in the message: the CLI prints every warning through text.one_line
+        warnings.warn(f"{scene.name}: the compared pixels carry no signal: {empty}; its metrics are null",
+                      EmptyComparison, stacklevel=2)
+    # an empty comparison measures over no pixel, so every metric is None (metrics' convention)
+    mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:
         b2, noise_mask = None, mask
         floor = metrics.PSNR_CAP if mask.any() else None
@@ -120,7 +185,7 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
     ssim = metrics.ssim(a, b, mask, full=True)
     flip_map = metrics.flip_map(a, b)
     return Measurement(
-        test=a, reference=b, reference2=b2, mask=mask, noise_mask=noise_mask,
+        test=a, reference=b, reference2=b2, mask=covered, noise_mask=noise_mask, empty=empty,
         psnr=metrics.psnr(a, b, mask), psnr_unbiased=unbiased, noise_floor_psnr=floor,
         ssim=ssim.value, ssim_map=ssim.map, ssim_selection=ssim.selection,
         flip=float(flip_map[mask].mean()) if mask.any() else None, flip_map=flip_map,

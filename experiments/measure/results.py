@@ -14,8 +14,10 @@ metrics; the next run of the sweep computes it again.
 
 Store (`ResultStore`): `results.jsonl`, one JSON object per line, appended and fsynced as rows
 finish. Reading drops a half-written last line (a killed run) so that a rerun resumes without losing
-or duplicating a row; a complete line that does not parse, or whose values have the wrong types
-(checked against the field annotations), is an error naming the file and the line.
+or duplicating a row; a complete line that does not parse, whose values have the wrong types
+(checked against the field annotations) or whose numbers have no meaning (a negative PSNR, SSIM above
+1, metrics of 0 pixels, a negative time: experiments/measure/fields.py) is an error naming the file,
+the line and the field (exit 2).
 
 A row's `id` is a hash of the content that determines it (experiments/runs/sweep.py: the resolved scene,
 the map's and meshes' bytes), so an edited scene or map never resumes into old numbers.
@@ -37,10 +39,15 @@ from dataclasses import MISSING, asdict, dataclass, field, fields
 from pathlib import Path
 from typing import Any
 
+from experiments.measure import fields as fields_
 from scenes import InputError
 from scenes.storage.files import write_bytes
 
 RESULTS = "results.jsonl"
+#: the numbers of a row whose meaning is checked on reading (experiments/measure/fields.py), beside
+#: `pixels` and the timings
+ROW_NUMBERS = ("psnr", "ssim", "flip", "rel_mse", "noise_floor_psnr", "psnr_unbiased", "width", "height",
+               "face_size", "reference_spp", "reference_s", "equal_quality_s")
 
 
 @dataclass(frozen=True)
@@ -146,6 +153,10 @@ class ResultRow:
         for name, value in kwargs.items():
             if not _matches(value, hints[name]):
                 raise ValueError(f"{name} = {str(value)[:40]!r} is not {_type_name(hints[name])}")
+        fields_.check(kwargs, ROW_NUMBERS, "")
+        fields_.check_pixels(kwargs, "")
+        for name in ("realtime_ms", "realtime_p90_ms"):
+            fields_.check_timings(kwargs.get(name, {}), name)
         if not kwargs["materials"] or not all(isinstance(m.get("type"), str) for m in kwargs["materials"]):
             raise ValueError("materials must list every object's material with its type")
         extra = {k: v for k, v in data.items() if k not in known}

@@ -18,11 +18,14 @@ from experiments.measure.pair import Measurement
 from experiments.measure.results import ResultRow
 from experiments.publish.outputs import write_bytes
 from experiments.publish.plots import pyplot, save
+from scenes import InputError
 from scenes.model.render import Render
 from scenes.model.tonemap import to_uint8
 
 #: the row's `images` key of the measured arrays (`save_comparison`, `load_measured`)
 ARRAYS = "arrays"
+#: the arrays of a measured.npz (`save_measured`)
+MEASURED_ARRAYS = ("rgb", "coverage", "meta", "mask", "error")
 
 
 def save_png(path: Path, rgb01: np.ndarray) -> None:
@@ -98,10 +101,57 @@ def save_measured(path: Path, measured: Measurement, test: Render) -> None:
 
 def load_measured(root: Path, row: ResultRow) -> MeasuredArrays | None:
     """The arrays `save_comparison` kept for `row` under `root` (the results folder); None for a row
-    without them (written before they were kept, or a failed row) or whose file is gone."""
+    without them (written before they were kept, or a failed row) or whose file is gone.
+
+    The file is checked as the row's results are (experiments/measure/fields.py): its path stays inside
+    `root`, it is an .npz of the five arrays, `rgb` an (H, W, 3) float image of the row's size with finite
+    radiance, `coverage` and `mask` (H, W) booleans, `error` (H, W) finite floats in [0, 1] (a
+    difference of display values), `meta` a JSON object. Anything else is an InputError naming the file
+    and the array (exit 2): the paper's figures would otherwise draw whatever the file holds."""
     rel = row.images.get(ARRAYS)
-    if not rel or not (Path(root) / rel).is_file():
+    if not rel:
         return None
-    with np.load(Path(root) / rel, allow_pickle=False) as z:
-        test = Render(rgb=z["rgb"], mask=z["coverage"], meta=json.loads(str(z["meta"])))
-        return MeasuredArrays(test, z["mask"], z["error"])
+    root = Path(root)
+    path = root / rel
+    if not path.resolve().is_relative_to(root.resolve()):
+        raise InputError(f"{root / 'results.jsonl'}: row {row.id}: images.{ARRAYS} = {rel!r} leaves the results "
+                         "folder")
+    if not path.is_file():
+        return None
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            missing = [k for k in MEASURED_ARRAYS if k not in z.files]
+            if missing:
+                raise InputError(f"{path}: measured arrays without {missing[0]!r}; delete the file to measure the "
+                                 "row again")
+            arrays = {k: z[k] for k in MEASURED_ARRAYS}
+        meta = json.loads(str(arrays["meta"]))
+    except InputError:
+        raise
+    except Exception as exc:  # a truncated or foreign file: np.load raises zip, pickle and value errors
+        raise InputError(f"{path}: not the measured arrays of a row ({type(exc).__name__}); delete the file to "
+                         "measure the row again") from None
+    why = _measured_problem(arrays, meta, (row.height, row.width))
+    if why:
+        raise InputError(f"{path}: {why}; delete the file to measure the row again")
+    test = Render(rgb=arrays["rgb"], mask=arrays["coverage"], meta=meta)
+    return MeasuredArrays(test, arrays["mask"], arrays["error"])
+
+
+def _measured_problem(arrays: dict[str, np.ndarray], meta: object, size: tuple[int, int]) -> str | None:
+    """What is wrong with the arrays of a measured.npz for a row of `size` (H, W), or None."""
+    rgb, error = arrays["rgb"], arrays["error"]
+    if rgb.shape != (*size, 3) or rgb.dtype.kind != "f":
+        return f"rgb holds {rgb.dtype} {rgb.shape}, not the row's {size[0]} x {size[1]} x 3 floats"
+    if not np.isfinite(rgb).all():
+        return "rgb holds NaN or Inf"
+    for name in ("coverage", "mask"):
+        if arrays[name].shape != size or arrays[name].dtype != bool:
+            return f"{name} holds {arrays[name].dtype} {arrays[name].shape}, not {size[0]} x {size[1]} booleans"
+    if error.shape != size or error.dtype.kind != "f":
+        return f"error holds {error.dtype} {error.shape}, not {size[0]} x {size[1]} floats"
+    if not np.isfinite(error).all() or (error < 0).any() or (error > 1 + 1e-6).any():
+        return "error holds values outside [0, 1] (a difference of display values)"
+    if not isinstance(meta, dict):
+        return "meta is not a JSON object"
+    return None

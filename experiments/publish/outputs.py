@@ -4,6 +4,8 @@
   folder is needed or the reverse, a device or pipe, a parent that cannot be created, a read-only
   or special file system (`/proc`) are `UsageError`s (exit 2) naming the option and the path. A
   missing folder is created then (and removed again if the command fails before using it).
+- A file path that ends with a separator (`out.exr/`) names a folder and is refused (`file_path`),
+  checked on the text as typed: `pathlib` would drop the slash.
 - `write_text` / `write_bytes` write through a temporary file beside the target and a rename, so
   a failure (Ctrl-C included) leaves the old file or none, never half a file or a temporary one.
 - `slug(name)` is the file-name form of a scene name for default output names: `name = "../../x"`
@@ -31,7 +33,7 @@ from experiments.publish.text import one_line
 from scenes import InputError
 from scenes.storage.files import write_bytes as _write_bytes
 
-__all__ = ["Outputs", "UsageError", "progress", "slug", "write_bytes", "write_text"]
+__all__ = ["Outputs", "UsageError", "file_path", "progress", "slug", "write_bytes", "write_text"]
 
 
 class UsageError(InputError):
@@ -46,6 +48,16 @@ def slug(name: str, limit: int = 64) -> str:
     text = re.sub(r"[^A-Za-z0-9._-]+", "-", text)
     text = re.sub(r"\.{2,}", ".", text).strip(".-_")
     return text[:limit].rstrip(".-_") or "scene"
+
+
+def file_path(text: str | Path, flag: str) -> Path:
+    """`text`, an output file as the user typed it, as a Path; a UsageError (exit 2) when it ends with a
+    path separator. `Path("out.exr/")` silently drops the slash, so the check must see the text itself:
+    `out.exr/` and `newout/` both name a folder and are refused alike, naming the path."""
+    seps = tuple(s for s in (os.sep, os.altsep) if s)
+    if isinstance(text, str) and text.endswith(seps):
+        raise UsageError(f"{flag} {one_line(text)}: ends with {text[-1]!r}, so it names a folder; give a file name")
+    return Path(text)
 
 
 def write_bytes(path: Path, data: bytes) -> None:
@@ -146,8 +158,8 @@ class Outputs:
 
     def file(self, path: str | Path, flag: str) -> Path:
         """A file the command writes: not a folder or a device; its folder exists (or is created)
-        and can be written."""
-        path = Path(path)
+        and can be written. A path typed with a trailing separator is refused (`file_path`)."""
+        path = file_path(path, flag)
         where = f"{flag} {path}"
         if path.name in ("", ".", ".."):
             raise UsageError(f"{where}: names a folder; give a file name")

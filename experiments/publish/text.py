@@ -14,8 +14,12 @@ one of these functions; HTML goes through Jinja's autoescape (experiments/publis
   does not parse).
 - `html_text(value)`: Jinja's `finalize` for the report page: control characters as in `visible`
   (newlines and tabs kept: HTML whitespace); Jinja's autoescape then escapes the markup.
-- `md_cell(text)`: `visible`, with `&`, `<`, `>` written as entities and `|` escaped, so a cell can
-  neither end a Markdown table row nor smuggle HTML into a renderer that passes HTML through.
+- `md_cell(text)`: `visible`, with `&`, `<`, `>` written as entities and the other Markdown-active
+  characters backslash-escaped (CommonMark 0.31 section 2.4: an escaped ASCII punctuation character is
+  literal text). So a name can neither end a Markdown table row (`|`), smuggle HTML, nor start a
+  link, image, emphasis, code span, strikethrough, list, autolink or GFM bare-URL link (its `:` and
+  `.` are escaped, which breaks the URL patterns; `@` is followed by an invisible U+2060 WORD JOINER,
+  which breaks the email pattern); its text renders unchanged (but for that joiner).
 - `comparison_table(rows)`: the plain-text table of `iblcheck compare`, every cell through `one_line`.
 """
 
@@ -66,10 +70,34 @@ def xml_text(text: object) -> str:
     return visible(text)
 
 
+#: the characters that are Markdown syntax anywhere in a line (CommonMark 0.31 and GFM inlines: escapes,
+#: code spans, emphasis, links and images, raw HTML and entities, table pipes, strikethrough, autolinks
+#: with their `:`, `.` and `@`) and on GitHub (`$` maths, `#` issue references), each written as
+#: literal text: a backslash escape (CommonMark section 2.4: any ASCII punctuation may be escaped)
+_MD_INLINE = re.compile(r"[\\`*_\[\]<>&|~!():@.$#]")
+#: characters that start a block only at the start of a line (list items, setext underlines, thematic
+#: breaks): escaped there only, so `sphere-blend` stays readable in the Markdown source
+_MD_BLOCK_START = "-+="
+#: `&`, `<`, `>` as entities (also safe where a renderer passes HTML through); GFM's email autolinks are
+#: found in the text after escapes are resolved (`a\@b\.io` still becomes a mailto link in cmark-gfm):
+#: an invisible WORD JOINER after `@` breaks the pattern, the text reads the same
+_MD_ENTITY = {"&": "&amp;", "<": "&lt;", ">": "&gt;", "@": "\\@\u2060"}
+
+
 def md_cell(text: object) -> str:
-    """A Markdown table cell: one line, no raw HTML, no column separators."""
-    cell = visible(text).replace("&", "&amp;").replace("<", "&lt;").replace(">", "&gt;")
-    return cell.replace("|", "\\|")
+    """Markdown inline text (a table cell, a list item, a heading) that renders as exactly `text`
+    made visible: one line, no raw HTML, no column separator, and no Markdown syntax (`_MD_INLINE`
+    escaped everywhere, `_MD_BLOCK_START` at the start; `&`, `<`, `>` as entities; `@` also followed
+    by U+2060, see `_MD_ENTITY`; leading and trailing spaces as `&#32;`)."""
+    cell = _MD_INLINE.sub(lambda m: _MD_ENTITY.get(m.group(0)) or "\\" + m.group(0), visible(text))
+    if cell and cell[0] in _MD_BLOCK_START:
+        cell = "\\" + cell
+    # leading spaces would start an indented code block, trailing ones a line break: as entities they are text
+    body = cell.strip(" ")
+    if not body:
+        return "&#32;" * len(cell)
+    start = cell.index(body)
+    return "&#32;" * start + body + "&#32;" * (len(cell) - start - len(body))
 
 
 def html_text(value: object) -> object:

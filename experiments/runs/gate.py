@@ -75,8 +75,10 @@ When the identity differs (the reference, the GL renderer, the techniques, iblch
 setting), a `warning:` line says what: the comparison is then less tight (another GL renders another
 image; another reference takes the different-references branch). A scene missing from the baseline
 fails, as a missing golden image does in CI (`--write-baseline` adds it); baseline scenes not run are
-listed in a note. A baseline file that is missing, unreadable, not JSON, holds NaN or Infinity or a
-field of the wrong type is a `BaselineError` naming the file and the field (exit 2).
+listed in a note. A baseline file that is missing, unreadable, not JSON, holds NaN or Infinity, a
+field of the wrong type or a number without meaning (a negative standard error, a PSNR outside
+[0, 100], metrics of 0 pixels, a negative time: experiments/measure/fields.py) is a `BaselineError`
+naming the file and the field (exit 2).
 """
 
 from __future__ import annotations
@@ -96,9 +98,8 @@ from typing import Any
 import numpy as np
 
 import groundtruth
-import realtime
 import scenes
-from experiments.measure import comparison, metrics
+from experiments.measure import comparison, fields, metrics
 from experiments.measure.pair import measure_pair
 from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
@@ -118,6 +119,9 @@ BLOCK = 16
 MAX_BASELINE_BYTES = 64 << 20
 #: the metrics a baseline compares, and the direction in which each gets worse
 BASELINE_METRICS = (("psnr", "dB", -1), ("ssim", "", -1), ("flip", "", +1))
+#: a record's numbers whose meaning is checked on reading (experiments/measure/fields.py), beside `pixels`
+RECORD_NUMBERS = ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
+                  "flip_noise_slope")
 
 
 class BaselineError(InputError):
@@ -173,7 +177,19 @@ def thresholds_for(scene, cli: dict, required: bool = True) -> dict:
     return out
 
 
-def evaluate(metrics: dict, thresholds: dict) -> list[str]:
+def evaluate(metrics: dict, thresholds: dict, allow_empty: bool = False) -> list[str]:
+    """The failures of one scene's metrics against its thresholds (empty when it passes).
+
+    An empty comparison (`metrics["no_signal"]`, experiments/measure/pair.py: no lit pixel in the
+    reference, too few covered pixels) never passes: it fails with its reason, unless `allow_empty`
+    (the scene's [gate] says `allow_empty = true`), when it passes with nothing to check. A `min_psnr`
+    above the reference's noise floor fails whatever the PSNR, with the spp that would resolve it
+    (`unresolvable`)."""
+    empty = metrics.get("no_signal")
+    if empty:
+        return [] if allow_empty else [
+            f"empty comparison: {empty}; its metrics are null and it cannot pass. If this is expected, "
+            "write allow_empty = true in the scene's [gate] table"]
     failures = []
     for key, metric, op in CHECKS:
         if key not in thresholds:
@@ -183,7 +199,40 @@ def evaluate(metrics: dict, thresholds: dict) -> list[str]:
             failures.append(f"{metric} undefined (no covered pixels), required {op} {limit:g}")
         elif (op == ">=" and value < limit) or (op == "<=" and value > limit):
             failures.append(f"{metric} = {value:.4g}, required {op} {limit:g}")
+    hint = unresolvable(thresholds.get("min_psnr"), metrics.get("noise_floor_psnr"), metrics.get("reference_spp"))
+    if hint:  # replaces the plain PSNR failure: the threshold itself is what is wrong
+        value = metrics.get("psnr")
+        head = "" if value is None else f"psnr = {value:.4g}, required >= {thresholds['min_psnr']:g}: "
+        failures = [f for f in failures if not f.startswith("psnr ")] + [head + hint]
     return failures
+
+
+def spp_for_floor(floor_db: float, spp: int, target_db: float) -> int:
+    """The reference spp whose noise floor reaches `target_db`, a doubling of `spp` (at most 2^24).
+
+    metrics.noise_floor_psnr is PSNR(a, b) + 10 log10(2) for two references a, b of independent seeds:
+    with sigma^2 the noise variance of one reference per value, MSE(a, b) = 2 sigma^2, so the floor is
+    -10 log10(sigma^2), the PSNR of one reference against the truth. A pixel's Monte Carlo estimate
+    averages spp independent samples, so sigma^2 = v / spp: doubling spp halves sigma^2 and raises the
+    floor by 10 log10(2) = 3.01 dB. The floor reaches target_db after
+    ceil((target_db - floor_db) / (10 log10 2)) doublings."""
+    doublings = max(0, math.ceil((target_db - floor_db) / metrics.TWO_RENDERS_DB - 1e-9))
+    return int(min(spp * 2 ** doublings, 1 << 24))
+
+
+def unresolvable(min_psnr: float | None, floor: float | None, spp: int | None) -> str | None:
+    """Why `min_psnr` cannot be checked against a reference with this noise floor, or None.
+
+    Against a reference r = truth + n, a perfect image scores exactly the floor (its MSE is n's
+    variance), and any image at most about that: a threshold above the floor fails every technique,
+    and the gate cannot tell a good one from a bad one. The hint names the floor and the spp at which
+    the floor would reach the threshold (`spp_for_floor`)."""
+    if min_psnr is None or floor is None or floor >= metrics.PSNR_CAP or min_psnr <= floor:
+        return None
+    need = f"; reference.spp = {spp_for_floor(floor, spp, min_psnr)} would resolve it" if spp else ""
+    return (f"min_psnr {min_psnr:g} dB is above the reference's noise floor {floor:.2f} dB"
+            + (f" at {spp} spp" if spp else "") + " (no image can score above the floor; the floor rises "
+            f"3 dB per doubling of spp){need}, or lower min_psnr")
 
 
 # --------------------------------------------------------------------------- loading and measuring
@@ -253,7 +302,7 @@ def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True
     step(f"{name}: reference, second seed")
     reference2 = comparison.second_reference(reference, scene)
     step(f"{name}: real-time")
-    test = realtime.render(scene)
+    test = comparison.render_realtime(scene)
     step(f"{name}: metrics")
     m = measure_pair(test, reference, scene, second_reference=reference2)
     result = comparison.compare(test, reference, scene, reference2, measured=m)
@@ -352,7 +401,9 @@ def make_record(planned: Planned, m: Measured) -> dict:
             **m.digests,
         },
         "metrics": {**{k: m.metrics.get(k) for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "psnr_unbiased",
-                                                       "rel_mse", "pixels")}, **m.noise},
+                                                       "rel_mse", "pixels")}, **m.noise,
+                    # why the metrics are null, for an empty comparison only (pair.Measurement.empty)
+                    **({"no_signal": m.metrics["no_signal"]} if m.metrics.get("no_signal") else {})},
         "timings": {"realtime_ms": m.metrics.get("realtime_ms"), "reference_s": m.metrics.get("reference_s"),
                     "seconds": m.seconds},
     }
@@ -384,7 +435,12 @@ def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | N
         p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
         m = measure(p.scene, step, noise=noise or baseline is not None)
         record = make_record(p, m)
-        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds), m.seconds, record)
+        allow_empty = p.scene.gate.allow_empty
+        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds, allow_empty),
+                       m.seconds, record)
+        if allow_empty and m.metrics.get("no_signal"):
+            r.warnings.append(f"empty comparison ({m.metrics['no_signal']}) passes: the scene's [gate] says "
+                              "allow_empty = true")
         if baseline is not None:
             entry = baseline["scenes"].get(p.key)
             if entry is None:
@@ -486,7 +542,9 @@ def compare_record(record: dict, entry: dict, tolerances: dict) -> tuple[list[De
             continue
         if n is None:
             deltas.append(Delta(metric, b, n, None, True))
-            failures.append(f"{metric} undefined (no covered pixels), baseline {b:.4g}")
+            # an empty comparison now, a measured one in the baseline: a change even where allow_empty
+            why = new.get("no_signal") or "no covered pixels"
+            failures.append(f"{metric} undefined ({why}), baseline {b:.4g}")
             continue
         given = tolerances.get({"psnr": "tolerance_db"}.get(metric, f"tolerance_{metric}"))
         if given is not None:
@@ -575,12 +633,6 @@ def read_baseline(path: str | Path) -> dict:
     return {**tree, "path": str(path)}
 
 
-def _number(value: Any, nullable: bool = True) -> bool:
-    if value is None:
-        return nullable
-    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-
-
 def _check_entry(path: Path, key: str, entry: Any) -> None:
     where = f"{path}: scenes[{_short(key)}]"
     if not isinstance(entry, dict):
@@ -588,19 +640,16 @@ def _check_entry(path: Path, key: str, entry: Any) -> None:
     metrics = entry.get("metrics")
     if not isinstance(metrics, dict):
         raise BaselineError(f"{where}.metrics: missing or not an object")
-    for k in ("psnr", "ssim", "flip", "noise_floor_psnr", "mse_se", "ssim_se", "flip_se", "ssim_noise_slope",
-              "flip_noise_slope"):
-        if not _number(metrics.get(k)):
-            raise BaselineError(f"{where}.metrics.{k}: {_short(metrics.get(k))} is not a finite number or null")
-    pixels = metrics.get("pixels")
-    if not isinstance(pixels, int) or isinstance(pixels, bool) or pixels < 0:
-        raise BaselineError(f"{where}.metrics.pixels: {_short(pixels)} is not a count of pixels")
+    # each number for its meaning (a standard error >= 0, a PSNR in [0, 100], ...): experiments/measure/fields.py
+    fields.check(metrics, RECORD_NUMBERS, f"{where}.metrics", BaselineError)
+    fields.check_pixels(metrics, f"{where}.metrics", BaselineError)
     if metrics.get("psnr") is not None and metrics.get("noise_floor_psnr") is None:
         raise BaselineError(f"{where}.metrics.noise_floor_psnr: null beside a PSNR (the rule needs both)")
     timings = entry.get("timings")
     rt = timings.get("realtime_ms") if isinstance(timings, dict) else None
-    if not isinstance(rt, dict) or "total" not in rt or not _number(rt["total"]) or (rt["total"] or 0) < 0:
-        raise BaselineError(f"{where}.timings.realtime_ms.total: missing or not a finite time >= 0")
+    if not isinstance(rt, dict) or rt.get("total") is None:
+        raise BaselineError(f"{where}.timings.realtime_ms.total: missing; a finite time >= 0 is required")
+    fields.check_timings(rt, f"{where}.timings.realtime_ms", BaselineError)
     for k in ("identity", "settings"):
         if not isinstance(entry.get(k, {}), dict):
             raise BaselineError(f"{where}.{k}: must be an object")

@@ -28,7 +28,6 @@ from typing import Any
 
 import numpy as np
 
-import realtime
 import scenes
 from experiments.measure import comparison, convergence
 from experiments.measure.results import ResultRow
@@ -121,7 +120,7 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     if references is None:
         c = comparison.run(scene)
     else:
-        c = comparison.compare_renders(realtime.render(scene), references[0], scene, references[1])
+        c = comparison.compare_renders(comparison.render_realtime(scene), references[0], scene, references[1])
     test = c.test
     rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, c.measured, test)

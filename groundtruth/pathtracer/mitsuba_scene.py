@@ -38,6 +38,15 @@ def integrator_kind(scene) -> str:
     return "path" if "occlusion" in scene.effects else "direct"
 
 
+def unsimulated_effects(scene, integrator: str | None = None) -> list[str]:
+    """The effects `scene` calls for that its reference leaves out: interreflection with the `direct`
+    integrator (max_depth 2: light reaches the camera after one bounce, from the environment or from
+    the light array alike; shadows, i.e. occlusion, are simulated). `integrator`: the one that rendered
+    the reference (its meta), or `integrator_kind(scene)`."""
+    kind = integrator or integrator_kind(scene)
+    return ["interreflection"] if kind == "direct" and "interreflection" in scene.effects else []
+
+
 def integrator_dict(scene, hide_emitters: bool = False) -> dict:
     depth = 2 if integrator_kind(scene) == "direct" else scene.reference.max_depth
     return {"type": "path", "max_depth": depth, "hide_emitters": hide_emitters}

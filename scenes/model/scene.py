@@ -198,6 +198,9 @@ class Gate:
     min_psnr: float | None = None
     min_ssim: float | None = None
     max_flip: float | None = None
+    # an empty comparison (no lit pixel in the reference, too few covered pixels) is expected: the gate
+    # passes it instead of failing it (experiments/runs/gate.py)
+    allow_empty: bool = False
 
 
 @dataclass(frozen=True)
@@ -360,6 +363,7 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
         "min_psnr": _num(-1e3, 1e3),
         "min_ssim": _num(-1, 1),
         "max_flip": _num(0, 1),
+        "allow_empty": _bool(),
     },
 }
 

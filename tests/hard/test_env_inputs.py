@@ -7,7 +7,6 @@ import pytest
 
 import realtime
 import scenes
-from experiments.measure import metrics
 from groundtruth.exact import quadrature
 from tests.hard.common import one_error_line, run_cli, write_env, write_tiny
 
@@ -77,14 +76,19 @@ def test_too_large_is_refused_before_allocating(tmp_path, monkeypatch):
 
 
 @pytest.mark.gl
-def test_all_black_environment_gives_defined_metrics(tmp_path):
+def test_all_black_environment_is_an_empty_comparison(tmp_path):
     scene = env_scene(tmp_path, np.zeros((16, 32, 3), np.float32))
     rt, q = realtime.render(scene), quadrature.render(scene, subpixels=1)
     assert (rt.rgb == 0).all() and (q.rgb == 0).all()
     from experiments import compare
 
-    out = compare(rt, q, scene)
-    assert out["psnr"] == metrics.PSNR_CAP and out["rel_mse"] == 0.0 and out["flip"] == pytest.approx(0.0, abs=1e-6)
+    # both black: an empty comparison (no lit pixel in the reference), its metrics null, never PSNR 100
+    from experiments.measure.pair import EmptyComparison
+
+    with pytest.warns(EmptyComparison, match="no lit pixel"):
+        out = compare(rt, q, scene)
+    assert (out["psnr"], out["ssim"], out["flip"], out["rel_mse"]) == (None, None, None, None)
+    assert "no lit pixel" in out["no_signal"] and out["pixels"] > 0
 
 
 @pytest.mark.gl

@@ -93,7 +93,7 @@ def test_object_outside_the_view_gives_an_empty_mask_and_a_clear_message(tmp_pat
     result = json.loads(out.stdout)
     assert result["pixels"] == 0 and result["psnr"] is None
     gate = run_cli("gate", str(path), "--min-psnr", "20", cache=tmp_path / "cache")
-    assert gate.returncode == 1 and "undefined (no covered pixels)" in gate.stdout
+    assert gate.returncode == 1 and "empty comparison: no pixel is covered" in gate.stdout
 
 
 def numpy_diffuse(scene, level: int, normals: np.ndarray) -> np.ndarray:

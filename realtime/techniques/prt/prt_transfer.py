@@ -56,7 +56,9 @@ directions too).
 Cache (`cached_transfer`): `scenes.storage.disk_cache.cache_dir() / "prt" / "<key>.npz"`, key = SHA-256 of
 every object's positions / normals / indices (dtype, shape, bytes), kd, two_sided, order, rays,
 bounces, shadowed, seed and TRANSFER_VERSION. Atomic writes (temporary file + os.replace), a SHA-256 of
-the arrays in each entry checked on read; a corrupt entry is recomputed with a CacheWarning, an
+the arrays in each entry checked on read, and its content for meaning (`entry_problem`: the version,
+vertex and ray counts of this transfer, a finite time >= 0; arrays of the right shape, float32 and
+finite); a corrupt or meaningless entry is recomputed with a CacheWarning, an
 unwritable folder is a CacheWarning and the transfer is returned uncached.
 """
 
@@ -349,7 +351,29 @@ def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
     return h.hexdigest()
 
 
-def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] | None:
+def entry_problem(meta: object, vertices: int, rays_traced: int) -> str | None:
+    """What is wrong with a cache entry's metadata (its checksum only proves it was written whole): it
+    must be the record `cached_transfer` writes for this transfer: TRANSFER_VERSION, the transfer's
+    vertex count, the rays it traces (`rays_traced`: vertices x rays when shadowed, else 0) and a finite
+    compute time >= 0 in seconds. The arrays are checked beside it (shape, float32, finite)."""
+    if not isinstance(meta, dict):
+        return "its metadata is not a JSON object"
+    version = meta.get("version")
+    if isinstance(version, bool) or version != TRANSFER_VERSION:
+        return f"version = {version!r}: this iblcheck reads version {TRANSFER_VERSION}"
+    for name, want in (("vertices", vertices), ("rays_traced", rays_traced)):
+        value = meta.get(name)
+        if isinstance(value, bool) or not isinstance(value, int) or value != want:
+            return f"{name} = {value!r}: this transfer has {want}"
+    sec = meta.get("seconds")
+    if isinstance(sec, bool) or not isinstance(sec, (int, float)) or not np.isfinite(sec) or sec < 0:
+        return f"seconds = {sec!r}: a finite time >= 0 is required"
+    return None
+
+
+def _load(path, shapes: list[tuple[int, ...]], vertices: int, rays_traced: int) -> tuple[list[np.ndarray], dict] | None:
+    """The arrays and metadata of a valid entry; None when missing. A corrupt entry, or one whose
+    content has no meaning for this transfer (`entry_problem`), warns and returns None (recomputed)."""
     if not path.exists():
         return None
     try:
@@ -361,7 +385,11 @@ def _load(path, shapes: list[tuple[int, ...]]) -> tuple[list[np.ndarray], dict] 
         for a, shape in zip(arrays, shapes, strict=True):
             if a.shape != shape or a.dtype != np.float32 or not np.isfinite(a).all():
                 raise ValueError(f"an array of shape {a.shape} {a.dtype} where {shape} float32 was expected")
-        return arrays, json.loads(meta_json)
+        meta = json.loads(meta_json)
+        problem = entry_problem(meta, vertices, rays_traced)
+        if problem:
+            raise ValueError(problem)
+        return arrays, meta
     except Exception as exc:  # any unreadable entry (truncated zip, bad checksum, ...) is recomputed
         warnings.warn(f"PRT cache entry {path} is corrupt ({exc}); recomputing it", CacheWarning, stacklevel=3)
         return None
@@ -398,11 +426,11 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     folder = cache_dir() / "prt"
     vertices = sum(len(o.positions) for o in objs)
     shapes = [(len(o.positions), count(int(order)), 3) for o in objs]
-    entry = _load(folder / f"{key}.npz", shapes)
+    entry = _load(folder / f"{key}.npz", shapes, vertices, vertices * int(rays) if shadowed else 0)
     if entry is not None:
         arrays, meta = entry
-        return arrays, {"key": key, "cached": True, "seconds": 0.0, "rays_traced": int(meta["rays_traced"]),
-                        "vertices": vertices, "compute_seconds": float(meta.get("seconds", 0.0))}
+        return arrays, {"key": key, "cached": True, "seconds": 0.0, "rays_traced": meta["rays_traced"],
+                        "vertices": vertices, "compute_seconds": float(meta["seconds"])}
     t0 = time.perf_counter()
     arrays, traced = _transfer(objects, order, rays, bounces, shadowed, seed, progress)
     seconds = time.perf_counter() - t0
