@@ -30,7 +30,7 @@ from types import ModuleType
 import moderngl
 import numpy as np
 
-from realtime.engine import levels
+from realtime.engine import levels, limits
 from realtime.engine.gpu import EnvironmentFilter, fill_from_equirect, groups, mat_bytes, sh9_defines, shader_source
 from realtime.engine.sh_orders import project_and_reduce
 from scenes.environment import paraboloid, spheremap
@@ -49,10 +49,10 @@ TEXEL_DIR_UNIT = 1
 def environment_store(ctx: moderngl.Context, scene):
     """The scene's environment store: the paper's cube map, or a 2D parameterization."""
     rt = scene.realtime
+    env = limits.fit_equirect(ctx, scene.environment.radiance(), f"environment.map = {scene.environment.map!r}")
     if rt.parameterization == "cube":
-        return EnvironmentFilter(ctx, scene.environment.radiance(), rt.base_size)
-    return MapStore(ctx, scene.environment.radiance(), rt.base_size, MAPPINGS[rt.parameterization],
-                    map_frame(scene))
+        return EnvironmentFilter(ctx, env, rt.base_size)
+    return MapStore(ctx, env, rt.base_size, MAPPINGS[rt.parameterization], map_frame(scene))
 
 
 def map_frame(scene) -> np.ndarray:
@@ -154,7 +154,13 @@ class MapStore:
         self.layers = mapping.LAYERS
         self.n_levels = int(math.log2(self.size)) + 1
         self.frame = np.asarray(frame, dtype=np.float64)  # world -> map
+        self.radiance = env  # the equirect map as uploaded (fitted to the context's limits by environment_store)
         h, w = env.shape[:2]
+        limits.check_texture(ctx, "2d", (w, h), "environment.map", "the environment map")
+        limits.check_texture(ctx, "array", (self.size, self.size, self.layers), "realtime.base_size",
+                             f"the {self.parameterization} map")
+        limits.check_texture(ctx, "2d", (self.size, self.layers * self.size), "realtime.base_size",
+                             "the map's texel lookup table")
         self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
         self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
         self.texture = ctx.texture_array((self.size, self.size, self.layers), 4, dtype="f4")
@@ -183,6 +189,8 @@ class MapStore:
             data = np.concatenate([self.world_directions(size),
                                    self.mapping.texel_solid_angles(size)[..., None]], axis=-1)
             data = data.reshape(self.layers * size, size, 4).astype("f4")
+            limits.check_texture(self.ctx, "2d", (size, self.layers * size), "realtime.base_size",
+                                 "the map's texel directions")
             tex = self.ctx.texture((size, self.layers * size), 4, data.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self._texel_dir[level] = tex

@@ -21,7 +21,7 @@ from importlib import resources
 import moderngl
 import numpy as np
 
-from realtime.engine import levels, sh
+from realtime.engine import levels, limits, sh
 from scenes.environment import cubemap, shbasis
 from scenes.environment.directions import direction_to_uv, rotation_y
 from scenes.model import materials
@@ -147,7 +147,12 @@ class EnvironmentFilter:
         self.ctx = ctx
         self.base_size = base_size
         self.n_levels = int(math.log2(base_size)) + 1
+        self.radiance = env  # the equirect map as uploaded (fitted to the context's limits by environment_store)
         h, w = env.shape[:2]
+        limits.check_texture(ctx, "2d", (w, h), "environment.map", "the environment map")
+        limits.check_texture(ctx, "cube", (base_size, base_size), "realtime.base_size", "the cube map")
+        limits.check_texture(ctx, "2d", (base_size, 6 * base_size), "realtime.base_size",
+                             "the cube map's texel lookup table")
         self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
         self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
         self.cube = ctx.texture_cube((base_size, base_size), 4, dtype="f4")
@@ -283,6 +288,8 @@ class SceneDrawer:
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))
         self.bg_vao = ctx.vertex_array(self.bg_prog, [])
+        limits.check_texture(ctx, "framebuffer", (self.width, self.height), "camera.width x camera.height",
+                             "the image")
         self.color = ctx.texture((self.width, self.height), 4, dtype="f4")
         self.depth = ctx.depth_renderbuffer((self.width, self.height))
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
