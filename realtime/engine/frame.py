@@ -49,6 +49,19 @@ def warn_unsimulated(scene) -> list[str]:
     return missing
 
 
+class TechniqueNotRunWarning(UserWarning):
+    """A technique the scene chose does not run: the scene calls for no such effect, or it has no work."""
+
+
+def warn_not_run(scene, idle: dict[str, str]) -> None:
+    """One warning line for the scene's chosen techniques that do not run ({effect key: reason})."""
+    if idle:
+        rt = scene.realtime
+        parts = "; ".join(f"realtime.{key} = {getattr(rt, key)!r}: {reason}" for key, reason in idle.items())
+        warnings.warn(f"{scene.name}: {parts}: not run (the render's techniques record it under not_run)",
+                      TechniqueNotRunWarning, stacklevel=3)
+
+
 def render(scene) -> Render:
     """Render a scene in real time with its techniques; see the module docstring."""
     rt = scene.realtime
@@ -64,6 +77,11 @@ def render(scene) -> Render:
     try:
         t0 = time.perf_counter()
         techniques = technique.choose(scene, frame)
+        idle = technique.not_run(scene)
+        idle.update((t.declaration.effect, "its technique has no work in this scene")
+                    for t in techniques if not t.has_work(frame))
+        techniques = [t for t in techniques if t.declaration.effect not in idle]
+        warn_not_run(scene, idle)
         for t in techniques:
             t.prepare(frame)
         ctx.finish()
@@ -117,7 +135,7 @@ def render(scene) -> Render:
             "base_size": rt.base_size,
             "object_distance": distance,
             "effects": sorted(scene.effects),
-            "techniques": technique.describe(scene),
+            "techniques": {**technique.describe(scene), **({"not_run": idle} if idle else {})},
             "unsimulated_effects": missing,
             "defines": list(drawer.defines),
             "frames": rt.timing_frames,
