@@ -24,7 +24,6 @@ import warnings
 
 import numpy as np
 
-from scenes.environment.directions import equirect_solid_angles
 from scenes.storage.errors import MissingCapability
 
 #: the limit that bounds each kind of texture: its sides (the array's layers are bounded apart)
@@ -109,33 +108,41 @@ def check_groups(ctx, counts: tuple[int, ...], key: str, what: str = "a compute 
 # -- an environment map too large for one texture --------------------------------------------
 
 
-def _integrate_bins(values: np.ndarray, n_out: int, axis: int) -> np.ndarray:
-    """Integrals of the piecewise-constant `values` (one texel = one unit) over `n_out` equal bins
-    spanning the whole `axis`: the running sum is piecewise linear, so it is read exactly at the bins'
-    edges by linear interpolation between texel boundaries."""
-    values = np.moveaxis(values, axis, 0)
-    n_in = values.shape[0]
-    running = np.concatenate([np.zeros_like(values[:1]), np.cumsum(values, axis=0)])
-    edges = np.arange(n_out + 1) * (n_in / n_out)
-    whole = np.minimum(np.floor(edges).astype(np.int64), n_in - 1)
-    frac = (edges - whole)[(...,) + (None,) * (values.ndim - 1)]
-    at_edges = running[whole] + frac * values[whole]
-    return np.moveaxis(np.diff(at_edges, axis=0), 0, axis)
+def _bin_integrals(values: np.ndarray, old: np.ndarray, new: np.ndarray, measure) -> np.ndarray:
+    """Integrals over the bins between the edges `new` of the piecewise-constant `values` (value k on
+    [old[k], old[k + 1]), along axis 0) against the measure whose cumulative function is `measure`.
+    The running integral is exact at the old edges and, inside an old bin, grows with the measure, so a
+    new bin that cuts an old one takes exactly its share of it."""
+    shape = (-1,) + (1,) * (values.ndim - 1)
+    cut = measure(old)
+    running = np.concatenate([np.zeros_like(values[:1]), np.cumsum(values * np.diff(cut).reshape(shape), axis=0)])
+    k = np.clip(np.searchsorted(old, new, side="right") - 1, 0, len(values) - 1)
+    at_edges = running[k] + (measure(new) - cut[k]).reshape(shape) * values[k]
+    return np.diff(at_edges, axis=0)
+
+
+def _row_edges(height: int) -> np.ndarray:
+    """Polar angles bounding the rows of an equirect map: row r is the sample at pi r / (H - 1) and stands
+    for the band half a row either side, clipped at the poles (scenes/environment/directions.py)."""
+    return np.clip((np.arange(height + 1) - 0.5) * (np.pi / (height - 1)), 0.0, np.pi)
 
 
 def downsample_equirect(env: np.ndarray, width: int, height: int) -> np.ndarray:
     """An (H, W, 3) equirect map resampled to (height, width) by area: each new texel is the solid-angle
-    weighted mean of the old texels it covers (columns of a row have equal solid angle; rows are
-    weighted by theirs), so the map's integral over the sphere is kept."""
+    weighted mean of the old texels it covers, so the map's integral over the sphere (with the weights of
+    `scenes.environment.directions.equirect_solid_angles`) is kept exactly.
+
+    Columns are cells of equal solid angle; a row is the band of polar angles around its sample, whose
+    solid angle grows with cos(top) - cos(bottom) (`_row_edges`)."""
     h, w = env.shape[:2]
     env = env.astype(np.float64)
     if width < w:
-        env = _integrate_bins(env, width, axis=1) * (width / w)
+        cols = _bin_integrals(np.moveaxis(env, 1, 0), np.arange(w + 1) / w, np.arange(width + 1) / width,
+                              lambda u: u)
+        env = np.moveaxis(cols, 0, 1) * width
     if height < h:
-        omega = equirect_solid_angles(h, 1)[:, 0]  # row weights (only their ratios matter)
-        power = _integrate_bins(env * omega[:, None, None], height, axis=0)
-        weight = _integrate_bins(omega, height, axis=0)
-        env = power / weight[:, None, None]
+        new = _row_edges(height)
+        env = _bin_integrals(env, _row_edges(h), new, lambda t: -np.cos(t)) / np.diff(-np.cos(new))[:, None, None]
     return env.astype(np.float32)
 
 
