@@ -79,7 +79,7 @@ def render(scene) -> Render:
         techniques = technique.choose(scene, frame)
         idle = technique.not_run(scene)
         idle.update((t.declaration.effect, "its technique has no work in this scene")
-                    for t in techniques if not t.has_work(frame))
+                    for t in technique.without_work(techniques, frame))
         techniques = [t for t in techniques if t.declaration.effect not in idle]
         warn_not_run(scene, idle)
         for t in techniques:

@@ -32,7 +32,7 @@ from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
 from scenes.model import technique_registry
-from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, Declaration
+from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, OPTIONAL_EFFECTS, Declaration
 
 if TYPE_CHECKING:  # the interface is importable without OpenGL; only the techniques' modules need it
     import moderngl
@@ -90,7 +90,10 @@ class Technique:
     def has_work(self, frame: Frame) -> bool:
         """Whether this technique has anything to do in `frame`'s scene (asked once, before `prepare`).
         False: it is neither prepared nor compiled in, and the render says so and records it as not run.
-        Only techniques for effects the scene calls for are asked (`needed`); the default is True."""
+
+        Asked only of the techniques of effects the scene calls for (`needed`) that may be left out
+        (OPTIONAL_EFFECTS: occlusion, interreflection); a lobe the scene calls for (diffuse, glossy) is
+        always shaded by its technique. The default is True."""
         return True
 
     def defines(self) -> tuple[str, ...]:
@@ -160,6 +163,11 @@ def not_run(scene) -> dict[str, str]:
     defaults = {f.name: f.default for f in fields(scene.realtime)}
     return {key: f"the scene calls for no {key}" for key, value in chosen(scene).items()
             if value != NOTHING and key not in scene.effects and value != defaults.get(key)}
+
+
+def without_work(techniques: list[Technique], frame: Frame) -> list[Technique]:
+    """The techniques of optional effects whose `has_work(frame)` says they have nothing to do."""
+    return [t for t in techniques if t.declaration.effect in OPTIONAL_EFFECTS and not t.has_work(frame)]
 
 
 def choose(scene, frame: Frame) -> list[Technique]:
