@@ -155,27 +155,28 @@ class MapStore:
         self.n_levels = int(math.log2(self.size)) + 1
         self.frame = np.asarray(frame, dtype=np.float64)  # world -> map
         self.radiance = env  # the equirect map as uploaded (fitted to the context's limits by environment_store)
+        limits.clear_errors(ctx)  # the GL error flag is checked once all is made (limits.check_created)
         h, w = env.shape[:2]
         limits.check_texture(ctx, "2d", (w, h), "environment.map", "the environment map")
         limits.check_texture(ctx, "array", (self.size, self.size, self.layers), "realtime.base_size",
                              f"the {self.parameterization} map")
-        limits.check_texture(ctx, "2d", (self.size, self.layers * self.size), "realtime.base_size",
-                             "the map's texel lookup table")
         self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
         self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
         self.texture = ctx.texture_array((self.size, self.size, self.layers), 4, dtype="f4")
         self.texture.build_mipmaps()  # allocates every level; their contents are written below
+        limits.check_created(ctx, "realtime.base_size", f"the {self.parameterization} map and its mip chain")
         self.texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
         self.fill_prog = ctx.compute_shader(shader_source("map_fill.comp"))
         self.down_prog = ctx.compute_shader(shader_source("map_downsample.comp"))
         u, v = direction_to_uv(self.world_directions(self.size))
-        uv = np.stack([u, v], axis=-1).reshape(self.layers * self.size, self.size, 2).astype("f4")
-        self.texel_uv = ctx.texture((self.size, self.layers * self.size), 2, uv.tobytes(), dtype="f4")
+        uv = np.stack([u, v], axis=-1).reshape(self.layers, self.size, self.size, 2).astype("f4")
+        self.texel_uv = ctx.texture_array((self.size, self.size, self.layers), 2, uv.tobytes(), dtype="f4")
         self.texel_uv.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
         self.projector = MapShProjector(ctx, 2, paper=True, buffer=self.sh_buffer)
         self._texel_dir: dict[int, moderngl.Texture] = {}
+        limits.check_created(ctx, "realtime.base_size", f"the {self.parameterization} map's lookup table")
 
     def world_directions(self, size: int) -> np.ndarray:
         """World directions (layers, size, size, 3) of the texel centres of a level of side `size`."""

@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from realtime.engine import levels, technique
+from realtime.engine import levels, limits, technique
 from realtime.engine.context import get_context, is_software, renderer_name
 from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import SceneDrawer
@@ -83,7 +83,10 @@ def render(scene) -> Render:
         techniques = [t for t in techniques if t.declaration.effect not in idle]
         warn_not_run(scene, idle)
         for t in techniques:
+            limits.clear_errors(ctx)  # the previous stage checked its own
             t.prepare(frame)
+            key = t.declaration.effect
+            limits.check_created(ctx, f"realtime.{key} = {getattr(rt, key)!r}", "the resources of its technique")
         ctx.finish()
         precompute_ms = (time.perf_counter() - t0) * 1e3
         needs = [t.chain_level(frame) for t in techniques]

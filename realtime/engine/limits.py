@@ -10,6 +10,9 @@ with one line naming the limit, its value on this context and the scene key that
 A storage buffer beyond GL_MAX_SHADER_STORAGE_BLOCK_SIZE gets a `warning:` line instead
 (`check_storage` says why).
 
+Beyond the limits that can be queried, a driver may still refuse a resource (memory): `check_created`
+reads the GL error flag after a resource is made and refuses the same way.
+
 The one case where going on is honest is an environment map too wide or tall for one texture:
 `fit_equirect` downsamples it (area-weighted, so the map's integral is kept) with a `warning:` line
 saying that the real-time image reads the downsampled map while the reference reads the full one.
@@ -103,6 +106,40 @@ def check_groups(ctx, counts: tuple[int, ...], key: str, what: str = "a compute 
     for axis, (n, most) in enumerate(zip(counts, value, strict=False)):
         if n > most:
             _refuse(what, f"{int(n)} work groups along {'xyz'[axis]}", GROUPS_LIMIT, value, key)
+
+
+#: the GL errors that mean a resource was not made: too large for memory, or a size beyond a limit
+REFUSALS = ("GL_OUT_OF_MEMORY", "GL_INVALID_VALUE")
+
+
+def _errors(ctx) -> list[str]:
+    """Every GL error flag set, cleared (glGetError returns and clears one flag per call)."""
+    out = []
+    for _ in range(16):  # an implementation keeps at most one flag per error kind
+        error = ctx.error
+        if error == "GL_NO_ERROR":
+            break
+        out.append(error)
+    return out
+
+
+def clear_errors(ctx) -> None:
+    """Forget GL errors raised before (by earlier work, or by Python collecting a released object)."""
+    _errors(ctx)
+
+
+def check_created(ctx, key: str, what: str) -> None:
+    """Refuse what was just made when the driver flagged that it could not make it.
+
+    The backstop of the checks above: a driver may refuse a resource within every reported limit (Mesa
+    llvmpipe makes no texture above 1 GiB, so a 4096-texel RGBA32F cube map is GL_OUT_OF_MEMORY), and the
+    resource then reads as black. `ctx.error` is glGetError; call `clear_errors` before making it. Only
+    the errors of REFUSALS count: another flag may come from work the resource has no part in (moderngl
+    objects released when Python collects them)."""
+    refused = [e for e in _errors(ctx) if e in REFUSALS]
+    if refused:
+        raise GLLimitExceeded(f"{key}: the OpenGL driver did not make {what} ({refused[0]}): it is beyond what "
+                              "this machine's driver allows", HINT)
 
 
 # -- an environment map too large for one texture --------------------------------------------

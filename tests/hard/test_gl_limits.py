@@ -184,9 +184,9 @@ def test_a_map_beyond_a_small_limit_is_downsampled_and_the_light_array_reads_the
 
 @pytest.mark.parametrize("table, overrides, words", [
     ({"GL_MAX_CUBE_MAP_TEXTURE_SIZE": 32}, {"realtime.base_size": 64}, "realtime.base_size: the cube map"),
-    ({"GL_MAX_TEXTURE_SIZE": 300}, {"realtime.base_size": 64}, "realtime.base_size: the cube map's texel lookup"),
-    ({"GL_MAX_TEXTURE_SIZE": 300}, {"realtime.parameterization": "dual_paraboloid", "realtime.base_size": 128},
-     "realtime.base_size"),
+    ({"GL_MAX_TEXTURE_SIZE": 32}, {"realtime.base_size": 64}, "realtime.base_size: the cube map's texel lookup"),
+    ({"GL_MAX_TEXTURE_SIZE": 200}, {"realtime.parameterization": "dual_paraboloid", "realtime.base_size": 128},
+     "realtime.base_size: the dual_paraboloid map"),
     ({"GL_MAX_ARRAY_TEXTURE_LAYERS": 1}, {"realtime.parameterization": "dual_paraboloid"}, "2 layers"),
     ({"GL_MAX_RENDERBUFFER_SIZE": 15}, {}, "camera.width x camera.height"),
     ({"GL_MAX_3D_TEXTURE_SIZE": 63}, {"realtime.occlusion": "vct", "objects.0.shape": "torus"},
@@ -217,6 +217,48 @@ def test_a_resource_beyond_a_small_limit_exits_3_naming_limit_and_key(tmp_path, 
     assert len(err) == 1 and err[0].startswith("error: ") and words in err[0], err
     assert f"above this OpenGL context's {next(iter(table))}" in err[0]
     assert not (tmp_path / "out.exr").exists()
+
+
+class ErrorFlags:
+    """A context whose glGetError returns the given flags, then GL_NO_ERROR."""
+
+    def __init__(self, *flags: str) -> None:
+        self.flags = list(flags)
+
+    @property
+    def error(self) -> str:
+        return self.flags.pop(0) if self.flags else "GL_NO_ERROR"
+
+
+@pytest.mark.parametrize("flags", [("GL_OUT_OF_MEMORY",), ("GL_INVALID_VALUE",),
+                                   ("GL_INVALID_OPERATION", "GL_OUT_OF_MEMORY")])
+def test_a_resource_the_driver_did_not_make_is_refused(flags):
+    ctx = ErrorFlags(*flags)
+    with pytest.raises(limits.GLLimitExceeded, match=r"^realtime\.base_size: the OpenGL driver did not make the "
+                                                     r"cube map \((GL_OUT_OF_MEMORY|GL_INVALID_VALUE)\)"):
+        limits.check_created(ctx, "realtime.base_size", "the cube map")
+    assert ctx.flags == []  # every flag read: the next check starts clean
+
+
+@pytest.mark.parametrize("flags", [(), ("GL_INVALID_OPERATION",), ("GL_INVALID_ENUM", "GL_INVALID_OPERATION")])
+def test_other_error_flags_are_not_a_refusal(flags):
+    """Negative control: flags that do not mean "not made" (a collected object's release) pass, and are cleared."""
+    ctx = ErrorFlags(*flags)
+    limits.check_created(ctx, "realtime.base_size", "the cube map")
+    assert ctx.flags == []
+
+
+def test_a_cube_map_the_driver_cannot_make_exits_3_not_black(tmp_path, capsys):
+    """Within every queried limit (16384) yet beyond llvmpipe's 1 GiB per texture: a 4096-texel RGBA32F cube
+    map with its chain is GL_OUT_OF_MEMORY. Before: a black object and exit 0. A driver that makes it passes."""
+    if "llvmpipe" not in get_context().info["GL_RENDERER"].lower():
+        pytest.skip("the 1 GiB texture limit is llvmpipe's")
+    code = cli.main(["render", str(write_tiny(tmp_path)), "--set", "realtime.base_size=4096",
+                     "-o", str(tmp_path / "out.exr")])
+    err = [line for line in capsys.readouterr().err.splitlines() if not line.startswith("warning:")]
+    assert code == 3 and len(err) == 1, err
+    assert "realtime.base_size: the OpenGL driver did not make the 4096-texel cube map" in err[0]
+    assert "GL_OUT_OF_MEMORY" in err[0]
 
 
 def test_the_same_scenes_render_under_the_real_limits(tmp_path, capsys):
