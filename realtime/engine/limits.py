@@ -96,8 +96,8 @@ def check_storage(ctx, nbytes: int, key: str, what: str = "a storage buffer") ->
     value = int(limit(ctx, STORAGE_LIMIT))
     if nbytes > value:
         warnings.warn(f"{key}: {what} needs {int(nbytes)} bytes, above this OpenGL context's {STORAGE_LIMIT} = "
-                      f"{value}: the driver accepted it, but a driver that keeps to its limit drops what lies "
-                      "beyond it", StorageLimitWarning, stacklevel=2)
+                      f"{value}: a driver may accept it (Mesa llvmpipe does); one that keeps to its limit drops "
+                      "what lies beyond it", StorageLimitWarning, stacklevel=2)
 
 
 def check_groups(ctx, counts: tuple[int, ...], key: str, what: str = "a compute dispatch") -> None:
