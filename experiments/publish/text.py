@@ -107,16 +107,24 @@ def html_text(value: object) -> object:
 
 def comparison_table(rows: list[dict]) -> str:
     """A plain-text table of `experiments.measure.comparison.compare` dicts for humans (`iblcheck compare`);
-    every cell goes through `one_line`."""
+    every cell goes through `one_line`.
+
+    Every per-frame timing key of the rows' `realtime_ms` has its column, so the frame time is the sum of
+    the columns shown: filter, the chosen techniques' declared timing keys as they first appear (e.g.
+    `lights`, `shadow`, `voxelize`, `mip`), draw, and the frame (`total`); a key a row lacks is `-`.
+    `precompute` (once per scene, not per frame) and `background` (no method's) are left out."""
+    seen = dict.fromkeys(k for row in rows for k in (row.get("realtime_ms") or {}))
+    own = [k for k in seen if k not in ("filter", "draw", "total", "precompute", "background")]
+    timings = [(f"{'frame' if k == 'total' else k} ms", ("realtime_ms", k), "{:.2f}")
+               for k in ("filter", *own, "draw", "total")]
     cols = [("scene", "scene", "{}"), ("PSNR dB", "psnr", "{:.2f}"), ("unbiased dB", "psnr_unbiased", "{:.2f}"),
             ("floor dB", "noise_floor_psnr", "{:.2f}"),
             ("SSIM", "ssim", "{:.4f}"), ("FLIP", "flip", "{:.4f}"), ("relMSE", "rel_mse", "{:.3g}"),
-            ("filter ms", ("realtime_ms", "filter"), "{:.2f}"), ("draw ms", ("realtime_ms", "draw"), "{:.2f}"),
-            ("frame ms", ("realtime_ms", "total"), "{:.2f}"),  # every per-frame key (lights, shadow, ...) + draw
+            *timings,
             ("ref s", "reference_s", "{:.1f}"), ("spp", "reference_spp", "{}"), ("pixels", "pixels", "{}")]
 
     def get(row, key):
-        return row.get(key[0], {}).get(key[1]) if isinstance(key, tuple) else row.get(key)
+        return (row.get(key[0]) or {}).get(key[1]) if isinstance(key, tuple) else row.get(key)
 
     cells = [[h for h, _, _ in cols]]
     for row in rows:

@@ -9,6 +9,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.context import get_context
 from realtime.engine.gpu import shader_source
 from realtime.engine.timing import summarize, timed
@@ -21,6 +22,7 @@ class DisplayPass:
         self.ctx = ctx
         h, w = rgb.shape[:2]
         self.size = (w, h)
+        limits.check_texture(ctx, "framebuffer", (w, h), "camera.width x camera.height", "the display image")
         self.src = ctx.texture((w, h), 4, np.dstack([rgb, np.ones((h, w))]).astype("f4").tobytes(), dtype="f4")
         self.src.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.dst = ctx.texture((w, h), 4, dtype="f4")

@@ -30,7 +30,7 @@ from types import ModuleType
 import moderngl
 import numpy as np
 
-from realtime.engine import levels
+from realtime.engine import levels, limits
 from realtime.engine.gpu import EnvironmentFilter, fill_from_equirect, groups, mat_bytes, sh9_defines, shader_source
 from realtime.engine.sh_orders import project_and_reduce
 from scenes.environment import paraboloid, spheremap
@@ -49,10 +49,10 @@ TEXEL_DIR_UNIT = 1
 def environment_store(ctx: moderngl.Context, scene):
     """The scene's environment store: the paper's cube map, or a 2D parameterization."""
     rt = scene.realtime
+    env = limits.fit_equirect(ctx, scene.environment.radiance(), f"environment.map = {scene.environment.map!r}")
     if rt.parameterization == "cube":
-        return EnvironmentFilter(ctx, scene.environment.radiance(), rt.base_size)
-    return MapStore(ctx, scene.environment.radiance(), rt.base_size, MAPPINGS[rt.parameterization],
-                    map_frame(scene))
+        return EnvironmentFilter(ctx, env, rt.base_size)
+    return MapStore(ctx, env, rt.base_size, MAPPINGS[rt.parameterization], map_frame(scene))
 
 
 def map_frame(scene) -> np.ndarray:
@@ -154,22 +154,29 @@ class MapStore:
         self.layers = mapping.LAYERS
         self.n_levels = int(math.log2(self.size)) + 1
         self.frame = np.asarray(frame, dtype=np.float64)  # world -> map
+        self.radiance = env  # the equirect map as uploaded (fitted to the context's limits by environment_store)
+        limits.clear_errors(ctx)  # the GL error flag is checked once all is made (limits.check_created)
         h, w = env.shape[:2]
+        limits.check_texture(ctx, "2d", (w, h), "environment.map", "the environment map")
+        limits.check_texture(ctx, "array", (self.size, self.size, self.layers), "realtime.base_size",
+                             f"the {self.parameterization} map")
         self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
         self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
         self.texture = ctx.texture_array((self.size, self.size, self.layers), 4, dtype="f4")
         self.texture.build_mipmaps()  # allocates every level; their contents are written below
+        limits.check_created(ctx, "realtime.base_size", f"the {self.parameterization} map and its mip chain")
         self.texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
         self.fill_prog = ctx.compute_shader(shader_source("map_fill.comp"))
         self.down_prog = ctx.compute_shader(shader_source("map_downsample.comp"))
         u, v = direction_to_uv(self.world_directions(self.size))
-        uv = np.stack([u, v], axis=-1).reshape(self.layers * self.size, self.size, 2).astype("f4")
-        self.texel_uv = ctx.texture((self.size, self.layers * self.size), 2, uv.tobytes(), dtype="f4")
+        uv = np.stack([u, v], axis=-1).reshape(self.layers, self.size, self.size, 2).astype("f4")
+        self.texel_uv = ctx.texture_array((self.size, self.size, self.layers), 2, uv.tobytes(), dtype="f4")
         self.texel_uv.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
         self.projector = MapShProjector(ctx, 2, paper=True, buffer=self.sh_buffer)
         self._texel_dir: dict[int, moderngl.Texture] = {}
+        limits.check_created(ctx, "realtime.base_size", f"the {self.parameterization} map's lookup table")
 
     def world_directions(self, size: int) -> np.ndarray:
         """World directions (layers, size, size, 3) of the texel centres of a level of side `size`."""
@@ -183,6 +190,8 @@ class MapStore:
             data = np.concatenate([self.world_directions(size),
                                    self.mapping.texel_solid_angles(size)[..., None]], axis=-1)
             data = data.reshape(self.layers * size, size, 4).astype("f4")
+            limits.check_texture(self.ctx, "2d", (size, self.layers * size), "realtime.base_size",
+                                 "the map's texel directions")
             tex = self.ctx.texture((size, self.layers * size), 4, data.tobytes(), dtype="f4")
             tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self._texel_dir[level] = tex

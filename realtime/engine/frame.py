@@ -20,7 +20,7 @@ import warnings
 
 import numpy as np
 
-from realtime.engine import levels, technique
+from realtime.engine import levels, limits, technique
 from realtime.engine.context import get_context, is_software, renderer_name
 from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import SceneDrawer
@@ -49,6 +49,19 @@ def warn_unsimulated(scene) -> list[str]:
     return missing
 
 
+class TechniqueNotRunWarning(UserWarning):
+    """A technique the scene chose does not run: the scene calls for no such effect, or it has no work."""
+
+
+def warn_not_run(scene, idle: dict[str, str]) -> None:
+    """One warning line for the scene's chosen techniques that do not run ({effect key: reason})."""
+    if idle:
+        rt = scene.realtime
+        parts = "; ".join(f"realtime.{key} = {getattr(rt, key)!r}: {reason}" for key, reason in idle.items())
+        warnings.warn(f"{scene.name}: {parts}: not run (the render's techniques record it under not_run)",
+                      TechniqueNotRunWarning, stacklevel=3)
+
+
 def render(scene) -> Render:
     """Render a scene in real time with its techniques; see the module docstring."""
     rt = scene.realtime
@@ -64,8 +77,16 @@ def render(scene) -> Render:
     try:
         t0 = time.perf_counter()
         techniques = technique.choose(scene, frame)
+        idle = technique.not_run(scene)
+        idle.update((t.declaration.effect, "its technique has no work in this scene")
+                    for t in technique.without_work(techniques, frame))
+        techniques = [t for t in techniques if t.declaration.effect not in idle]
+        warn_not_run(scene, idle)
         for t in techniques:
+            limits.clear_errors(ctx)  # the previous stage checked its own
             t.prepare(frame)
+            key = t.declaration.effect
+            limits.check_created(ctx, f"realtime.{key} = {getattr(rt, key)!r}", "the resources of its technique")
         ctx.finish()
         precompute_ms = (time.perf_counter() - t0) * 1e3
         needs = [t.chain_level(frame) for t in techniques]
@@ -117,7 +138,7 @@ def render(scene) -> Render:
             "base_size": rt.base_size,
             "object_distance": distance,
             "effects": sorted(scene.effects),
-            "techniques": technique.describe(scene),
+            "techniques": {**technique.describe(scene), **({"not_run": idle} if idle else {})},
             "unsimulated_effects": missing,
             "defines": list(drawer.defines),
             "frames": rt.timing_frames,

@@ -21,7 +21,7 @@ from importlib import resources
 import moderngl
 import numpy as np
 
-from realtime.engine import levels, sh
+from realtime.engine import levels, limits, sh
 from scenes.environment import cubemap, shbasis
 from scenes.environment.directions import direction_to_uv, rotation_y
 from scenes.model import materials
@@ -147,22 +147,31 @@ class EnvironmentFilter:
         self.ctx = ctx
         self.base_size = base_size
         self.n_levels = int(math.log2(base_size)) + 1
+        self.radiance = env  # the equirect map as uploaded (fitted to the context's limits by environment_store)
+        limits.clear_errors(ctx)  # the GL error flag is checked once all is made (limits.check_created)
         h, w = env.shape[:2]
+        limits.check_texture(ctx, "2d", (w, h), "environment.map", "the environment map")
+        limits.check_texture(ctx, "cube", (base_size, base_size), "realtime.base_size", "the cube map")
+        limits.check_texture(ctx, "array", (base_size, base_size, 6), "realtime.base_size",
+                             "the cube map's texel lookup table")
         self.env_tex = ctx.texture((w, h), 3, np.ascontiguousarray(env, dtype="f4").tobytes(), dtype="f4")
         self.env_tex.filter = (moderngl.NEAREST, moderngl.NEAREST)  # bilinear is done by hand
         self.cube = ctx.texture_cube((base_size, base_size), 4, dtype="f4")
         self.cube.build_mipmaps()  # allocates every level; their contents are written below
+        limits.check_created(ctx, "realtime.base_size", f"the {base_size}-texel cube map and its mip chain")
         self.cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
         self.fill_prog = ctx.compute_shader(shader_source("env_to_cube.comp"))
         self.down_prog = ctx.compute_shader(shader_source("downsample.comp"))
         self.sh_prog = self.reduce_prog = None  # the SH9 programs, compiled on the first project_sh
         u, v = direction_to_uv(cubemap.texel_directions(base_size))
-        uv = np.stack([u, v], axis=-1).reshape(6 * base_size, base_size, 2).astype("f4")
-        self.texel_uv = ctx.texture((base_size, 6 * base_size), 2, uv.tobytes(), dtype="f4")
+        uv = np.stack([u, v], axis=-1).reshape(6, base_size, base_size, 2).astype("f4")
+        # one layer per face: a (size, 6 size) 2D texture would pass GL_MAX_TEXTURE_SIZE at a sixth of the cube's size
+        self.texel_uv = ctx.texture_array((base_size, base_size, 6), 2, uv.tobytes(), dtype="f4")
         self.texel_uv.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.sh_buffer = ctx.buffer(reserve=(3 * 16 + 9 * 4) * 4)
         self._solid_angle: dict[int, moderngl.Texture] = {}
         self._partials: dict[int, moderngl.Buffer] = {}
+        limits.check_created(ctx, "realtime.base_size", f"the {base_size}-texel cube map's lookup table")
 
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
@@ -283,9 +292,13 @@ class SceneDrawer:
         self.bg_prog = ctx.program(vertex_shader=shader_source("fullscreen.vert"),
                                    fragment_shader=shader_source("background.frag"))
         self.bg_vao = ctx.vertex_array(self.bg_prog, [])
+        limits.check_texture(ctx, "framebuffer", (self.width, self.height), "camera.width x camera.height",
+                             "the image")
+        limits.clear_errors(ctx)
         self.color = ctx.texture((self.width, self.height), 4, dtype="f4")
         self.depth = ctx.depth_renderbuffer((self.width, self.height))
         self.fbo = ctx.framebuffer(color_attachments=[self.color], depth_attachment=self.depth)
+        limits.check_created(ctx, "camera.width x camera.height", "the image's framebuffer")
         self.objects = []
         for obj in scene.objects:
             mesh = obj.mesh

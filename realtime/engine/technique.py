@@ -16,24 +16,29 @@ subclass named by the declaration, runs it:
     release()
 
 `realtime.engine.frame.render` composes a frame from the techniques `choose(scene)` returns: only those for
-the scene's effects are prepared, updated and compiled in. The environment's cube map and its 2x2 box
-chain (realtime.engine.gpu.EnvironmentFilter) are shared by every technique; each says how much of the
-chain it reads (`chain_level`), so the paper's diffuse-only frame still stops the chain at the selected level.
+the scene's effects are prepared, updated and compiled in, and of those only the ones whose `has_work(frame)`
+says they have something to do (default: yes). A technique the scene chose that does not run (the scene
+calls for no such effect, or it has no work) is said in one `warning:` line and recorded under `not_run` in
+the techniques' description (`describe`, `not_run`): what is reported is what ran.
+
+The environment's cube map and its 2x2 box chain (realtime.engine.gpu.EnvironmentFilter) are shared by every
+technique; each says how much of the chain it reads (`chain_level`), so the paper's diffuse-only frame still
+stops the chain at the selected level.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from typing import TYPE_CHECKING, Any
 
 from scenes.model import technique_registry
-from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, Declaration
+from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, OPTIONAL_EFFECTS, Declaration
 
 if TYPE_CHECKING:  # the interface is importable without OpenGL; only the techniques' modules need it
     import moderngl
 
 __all__ = ["EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "build", "choose", "declaration_of", "describe",
-           "needed", "owner_of", "pairs", "simulated_effects", "unsimulated_effects"]
+           "needed", "not_run", "owner_of", "pairs", "simulated_effects", "unsimulated_effects"]
 
 #: `chain_level` of a technique that reads neither the cube map nor its chain (e.g. the light array)
 NO_CUBE = -1
@@ -81,6 +86,15 @@ class Technique:
 
     def update(self, frame: Frame) -> None:  # noqa: B027 (optional hook)
         """Every frame, after the environment's cube map and chain are rebuilt."""
+
+    def has_work(self, frame: Frame) -> bool:
+        """Whether this technique has anything to do in `frame`'s scene (asked once, before `prepare`).
+        False: it is neither prepared nor compiled in, and the render says so and records it as not run.
+
+        Asked only of the techniques of effects the scene calls for (`needed`) that may be left out
+        (OPTIONAL_EFFECTS: occlusion, interreflection); a lobe the scene calls for (diffuse, glossy) is
+        always shaded by its technique. The default is True."""
+        return True
 
     def defines(self) -> tuple[str, ...]:
         return ()
@@ -140,6 +154,22 @@ def needed(scene) -> list[tuple[str, str]]:
     return [(key, value) for key, value in chosen(scene).items() if value != NOTHING and key in effects]
 
 
+def not_run(scene) -> dict[str, str]:
+    """{effect key: reason} of the scene's technique choices that do not run because the scene calls for
+    no such effect (e.g. `occlusion = "vct"` with one convex object, which shadows nothing).
+
+    A key left at the engine's default (`glossy = "box"` on a diffuse-only scene) is the engine's standing
+    choice, not the scene's, and is not listed; neither is `"none"`."""
+    defaults = {f.name: f.default for f in fields(scene.realtime)}
+    return {key: f"the scene calls for no {key}" for key, value in chosen(scene).items()
+            if value != NOTHING and key not in scene.effects and value != defaults.get(key)}
+
+
+def without_work(techniques: list[Technique], frame: Frame) -> list[Technique]:
+    """The techniques of optional effects whose `has_work(frame)` says they have nothing to do."""
+    return [t for t in techniques if t.declaration.effect in OPTIONAL_EFFECTS and not t.has_work(frame)]
+
+
 def choose(scene, frame: Frame) -> list[Technique]:
     """The techniques of a scene, constructed (not yet prepared)."""
     return [build(key, value, frame) for key, value in needed(scene)]
@@ -189,4 +219,7 @@ def describe(scene) -> dict[str, Any]:
     for decl in technique_registry.chosen(rt):
         if decl.describe is not None:
             out.update(decl.describe(rt))
+    idle = not_run(scene)
+    if idle:  # only then: the description of a scene whose choices all run is unchanged
+        out["not_run"] = idle
     return out

@@ -542,7 +542,11 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         raise SceneError(f"{where}: camera.up = {list(cam.up)}: must not be zero or parallel to the view direction")
 
     # objects
-    objs_raw = tree.get("objects", [{}])
+    # no default object: a scene without [[objects]] would render something the file never names
+    if "objects" not in tree:
+        raise SceneError(f"{where}: objects: missing: a scene needs at least one [[objects]] table (e.g. "
+                         '[[objects]] shape = "sphere")')
+    objs_raw = tree["objects"]
     if not isinstance(objs_raw, list) or not objs_raw:
         raise fail("objects", objs_raw, "a non-empty array of tables ([[objects]])")
     objects = []

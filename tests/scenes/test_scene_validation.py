@@ -112,12 +112,12 @@ def test_missing_file():
 
 
 def test_defaults_and_name_from_stem(tmp_path):
-    scene = scenes.load(write_scene(tmp_path, "", name="plain.toml"))
+    scene = scenes.load(write_scene(tmp_path, "[[objects]]\n", name="plain.toml"))  # one object, all defaults
     assert scene.name == "plain"
     assert scene.environment.map == "builtin:uffizi"
     assert scene.camera.fov_deg == 30.0 and (scene.camera.width, scene.camera.height) == (256, 256)
     assert scene.realtime.face_size == 64 and scene.reference.spp == 1024
-    assert scene.objects[0].material.type == "diffuse"
+    assert scene.objects[0].material.type == "diffuse" and scene.objects[0].shape == "sphere"
 
 
 def test_env_path_relative_to_scene_file(tmp_path):
@@ -128,7 +128,7 @@ def test_env_path_relative_to_scene_file(tmp_path):
     envmap.write(sub / "c.exr", environments.builtin("constant"))
     scene_dir = tmp_path / "scenes"
     scene_dir.mkdir()
-    path = write_scene(scene_dir, '[environment]\nmap = "../maps/c.exr"\n')
+    path = write_scene(scene_dir, '[environment]\nmap = "../maps/c.exr"\n[[objects]]\n')
     scene = scenes.load(path)
     assert scene.environment.map == str(scene_dir / "../maps/c.exr")
     assert scene.environment.radiance().shape == (32, 64, 3)

@@ -27,6 +27,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import groups, shader_source
 from realtime.engine.readback import read_cube_level
 from scenes.environment import cubemap
@@ -91,6 +92,11 @@ class IrradianceConvolver:
         defines = (f"B {self.block}", f"LX {self.local_x}", f"LY {self.local_y}")
         defines += ("NORMALIZE",) if normalize else ()
         self.prog = ctx.compute_shader(shader_source("irradiance_convolve.comp", defines, package=__package__))
+        key = "realtime.irradiance_map.source_size"
+        limits.check_texture(ctx, "2d", (source_size, 6 * source_size), key, "the convolution weights")
+        limits.check_storage(ctx, 6 * source_size * source_size * 2 * 16, key, "the packed source texels")
+        limits.check_groups(ctx, (groups(6 * source_size * source_size, PACK_GROUP),), key, "the packing dispatch")
+        limits.check_texture(ctx, "cube", (size, size), "realtime.irradiance_map.size", "the irradiance cube map")
         w = texel_weights(source_size).reshape(6 * source_size, source_size, 4)
         self.weights = ctx.texture((source_size, 6 * source_size), 4, w.astype("f4").tobytes(), dtype="f4")
         self.weights.filter = (moderngl.NEAREST, moderngl.NEAREST)

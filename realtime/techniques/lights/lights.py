@@ -18,6 +18,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import shader_source
 from realtime.engine.technique import NO_CUBE, Frame, Technique, set_uniform
 from scenes.environment import light_array
@@ -34,6 +35,8 @@ class LightArrayGpu:
         self.array = light_array.make(env, placement, count)
         h, w = env.shape[:2]
         self.width = w
+        limits.check_groups(ctx, (self.array.count,), "realtime.lights.count", "the light power sums")
+        limits.check_storage(ctx, h * w * 4, "environment.map", "the light array's texel lists")
         order = np.argsort(self.array.texel_light.ravel(), kind="stable").astype("i4")
         offsets = np.searchsorted(self.array.texel_light.ravel()[order], np.arange(count + 1)).astype("i4")
         self.offsets = ctx.buffer(offsets.tobytes())
@@ -92,7 +95,7 @@ def shared_array(frame: Frame) -> LightArrayGpu:
     """The scene's one light array, made by whichever lights technique asks first."""
     if "light_array" not in frame.shared:
         params = frame.scene.realtime.lights
-        env = frame.scene.environment.radiance()
+        env = frame.env_filter.radiance  # the map the GPU reads (fitted to the context's limits)
         frame.shared["light_array"] = LightArrayGpu(frame.ctx, env, params.placement, params.count)
     return frame.shared["light_array"]
 

@@ -26,6 +26,7 @@ import math
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import groups, shader_source
 from realtime.engine.readback import read_cube_level
 from scenes.environment import cubemap
@@ -117,6 +118,7 @@ class PhongPrefilter:
         self.base_size = base_size
         self.n_levels = int(math.log2(base_size)) + 1
         self.bias = float(bias)
+        limits.check_texture(ctx, "cube", (base_size, base_size), "realtime.base_size", "the prefiltered cube map")
         self.prog = ctx.compute_shader(shader_source("prefilter_phong.comp", package=__package__))
         self.texture = ctx.texture_cube((base_size, base_size), 4, dtype="f4")
         self.texture.build_mipmaps()  # allocates every level
@@ -134,6 +136,7 @@ class PhongPrefilter:
         self.exponent = float(exponent)
         self.samples = int(samples)
         data = phong_samples(self.exponent, self.samples, self.base_size).astype("f4").tobytes()
+        limits.check_storage(self.ctx, len(data), "realtime.prefiltered.samples", "the prefilter's sample set")
         if self.sample_buffer is not None:
             self.sample_buffer.release()
         self.sample_buffer = self.ctx.buffer(data)

@@ -24,10 +24,10 @@ import math
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import shader_source
 from realtime.engine.technique import NO_CUBE, Frame, Technique, set_uniform
 from realtime.techniques.lights.lights import shared_array
-from scenes import InputError
 
 NORMAL_OFFSET_TEXELS = 1.5
 DEPTH_BIAS_TEXELS = 1.0
@@ -79,11 +79,10 @@ class ShadowMaps(Technique):
     def prepare(self, frame: Frame) -> None:
         ctx = frame.ctx
         side = self.tiles * self.size
-        limit = ctx.info["GL_MAX_TEXTURE_SIZE"]
-        if side > limit:
-            raise InputError(f"realtime.lights.count = {self.count} with realtime.lights.shadow_map_size = "
-                             f"{self.size}: a {side}x{side} shadow atlas is beyond this GL's largest texture "
-                             f"({limit}); fewer lights or smaller maps")
+        keys = f"realtime.lights.count = {self.count} with realtime.lights.shadow_map_size = {self.size}"
+        limits.check_texture(ctx, "2d", (side, side), keys, "the shadow atlas")
+        limits.check_texture(ctx, "framebuffer", (side, side), keys, "the shadow atlas")
+        limits.check_storage(ctx, self.count * 64, "realtime.lights.count", "the light matrices")
         self.atlas = ctx.depth_texture((side, side))
         self.atlas.compare_func = "<="
         self.atlas.filter = (moderngl.LINEAR, moderngl.LINEAR)  # bilinear PCF of the compare results

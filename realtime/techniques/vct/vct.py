@@ -48,6 +48,7 @@ import time
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import shader_source
 from realtime.engine.technique import Frame, Technique, set_uniform
 from realtime.techniques.vct import vct_math
@@ -135,9 +136,17 @@ class VoxelScene:
         self.cones = vct_math.cone_set(diffuse_cones)
         records = triangle_records(objects)
         self.triangle_count = len(records) // 5
+        size = (resolution, resolution, resolution * cascades)
+        limits.check_storage(ctx, records.nbytes, "objects", "the voxelizer's triangle list")
+        limits.check_groups(ctx, (groups(self.triangle_count, 64),), "objects", "the voxelizer's dispatch")
+        limits.check_storage(ctx, resolution ** 3 * VOXEL_INTS * 4, "realtime.vct.resolution",
+                             "a cascade's voxelization scratch buffer")
+        limits.check_texture(ctx, "3d", size, "realtime.vct.resolution and realtime.vct.cascades",
+                             "the voxel cascades")
+        limits.check_groups(ctx, (groups(resolution, 4),) * 2 + (groups(resolution * cascades, 4),),
+                            "realtime.vct.resolution and realtime.vct.cascades", "the voxel mip dispatch")
         self.triangles = ctx.buffer(records.tobytes())
         self.scratch = [ctx.buffer(reserve=resolution ** 3 * VOXEL_INTS * 4) for _ in range(cascades)]
-        size = (resolution, resolution, resolution * cascades)
         self.faces = []
         for _ in range(6):
             tex = ctx.texture3d(size, 4, dtype="f2")
