@@ -26,6 +26,7 @@ from experiments.measure.comparison import compare
 from experiments.paper.context import CommandLine, Context
 from experiments.paper.e06_hostile_cases import error_of
 from experiments.paper.e06_hostile_runs import HostileCases
+from experiments.paper.e06_limits_and_trust import LimitsAndTrustCases
 from experiments.publish.report import Section, md_table, paragraph, table
 from groundtruth.exact import quadrature
 from scenes.environment import envmap
@@ -189,8 +190,14 @@ def parts(cases: Cases, hostile: HostileCases) -> list[tuple[str, Callable[[], l
     return own + [("", part) for part in hostile.parts()]
 
 
+#: the hostile-input classes, in the order their parts run (e06_hostile_runs, then e06_limits_and_trust)
+HOSTILE_CLASSES = ("escaping", "output paths", "exit codes", "silent misreads", "back faces", "stale sweeps",
+                   "machine limits", "tiny maps", "trusted files", "empty comparisons", "strict glTF", "Markdown",
+                   "what ran", "smaller promises")
+
+
 def count_parts() -> int:
-    return len(CLASSES) + 6
+    return len(CLASSES) + len(HOSTILE_CLASSES)
 
 
 def count_steps(settings: Settings) -> int:
@@ -200,7 +207,7 @@ def count_steps(settings: Settings) -> int:
 
 def run_cases(spp: int, command_line: CommandLine, progress: Callable[[], None] | None = None) -> list[dict]:
     """Every case's row {"class", "case", "expected", "outcome", "ok"}, in the order of `parts`."""
-    cases, hostile = Cases(spp), HostileCases(spp, command_line)
+    cases, hostile = Cases(spp), LimitsAndTrustCases(spp, command_line)
     rows = []
     try:
         for cls, part in parts(cases, hostile):

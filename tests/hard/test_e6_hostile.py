@@ -12,13 +12,14 @@ from experiments.cli.main import COMMAND_LINE
 from experiments.paper import e06_stability as stability
 from experiments.paper.context import CommandLine
 from experiments.paper.e06_hostile_runs import HostileCases
+from experiments.paper.e06_limits_and_trust import LimitsAndTrustCases
 
-CLASSES = ["escaping", "output paths", "exit codes", "silent misreads", "back faces", "stale sweeps"]
+CLASSES = list(stability.HOSTILE_CLASSES)
 
 
 @pytest.fixture(scope="module")
 def rows(tmp_path_factory):
-    cases = HostileCases(spp=16, command_line=COMMAND_LINE)
+    cases = LimitsAndTrustCases(spp=16, command_line=COMMAND_LINE)
     out = []
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("IBLCHECK_CACHE", str(tmp_path_factory.getbasetemp() / "cache"))
@@ -54,13 +55,15 @@ def test_the_e6_section_shows_the_class_of_each_case(rows, monkeypatch):
 
 
 def test_e6_runs_its_own_parts_and_then_the_hostile_ones():
-    cases, hostile = stability.Cases(16), HostileCases(16, COMMAND_LINE)
+    cases, hostile = stability.Cases(16), LimitsAndTrustCases(16, COMMAND_LINE)
     try:
         groups = stability.parts(cases, hostile)
-        assert len(groups) == stability.count_parts() == 12
+        assert len(groups) == stability.count_parts() == 20
         assert [c for c, _ in groups[:6]] == list(stability.CLASSES.values())
         assert [p.__name__ for _, p in groups[6:]] == ["escaping", "output_paths", "exit_codes", "misreads",
-                                                       "back_faces", "stale_sweeps"]
+                                                       "back_faces", "stale_sweeps", "machine_limits", "tiny_maps",
+                                                       "trusted_files", "empty_comparisons", "strict_gltf",
+                                                       "markdown", "what_ran", "smaller_promises"]
     finally:
         shutil.rmtree(cases.tmp, ignore_errors=True)
         shutil.rmtree(hostile.tmp, ignore_errors=True)
