@@ -6,7 +6,7 @@
     e04_frame_time              frame time by effect set and face size
     e05_reference_convergence   the path tracer's noise floor and seconds against spp
     e06_stability               every hard case with what happened (e06_hostile_runs, e06_hostile_cases,
-                                e06_limits_and_trust: the hostile-input cases and their inputs)
+                                e06_hostile_limits: the hostile-input cases and their inputs)
     e07_accuracy_time_ladder    accuracy against time across techniques, plugins included
     e08_occlusion               what shadows and bounces cost (light arrays, shadow maps, PRT)
     e09_parameterizations       cube, dual paraboloid and sphere map at equal texel budgets

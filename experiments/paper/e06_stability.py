@@ -25,8 +25,8 @@ from experiments.measure import metrics
 from experiments.measure.comparison import compare
 from experiments.paper.context import CommandLine, Context
 from experiments.paper.e06_hostile_cases import error_of
+from experiments.paper.e06_hostile_limits import LimitsAndTrustCases
 from experiments.paper.e06_hostile_runs import HostileCases
-from experiments.paper.e06_limits_and_trust import LimitsAndTrustCases
 from experiments.publish.report import Section, md_table, paragraph, table
 from groundtruth.exact import quadrature
 from scenes.environment import envmap
@@ -190,7 +190,7 @@ def parts(cases: Cases, hostile: HostileCases) -> list[tuple[str, Callable[[], l
     return own + [("", part) for part in hostile.parts()]
 
 
-#: the hostile-input classes, in the order their parts run (e06_hostile_runs, then e06_limits_and_trust)
+#: the hostile-input classes, in the order their parts run (e06_hostile_runs, then e06_hostile_limits)
 HOSTILE_CLASSES = ("escaping", "output paths", "exit codes", "silent misreads", "back faces", "stale sweeps",
                    "machine limits", "tiny maps", "trusted files", "empty comparisons", "strict glTF", "Markdown",
                    "what ran", "smaller promises")

@@ -11,8 +11,8 @@ import pytest
 from experiments.cli.main import COMMAND_LINE
 from experiments.paper import e06_stability as stability
 from experiments.paper.context import CommandLine
+from experiments.paper.e06_hostile_limits import LimitsAndTrustCases
 from experiments.paper.e06_hostile_runs import HostileCases
-from experiments.paper.e06_limits_and_trust import LimitsAndTrustCases
 
 CLASSES = list(stability.HOSTILE_CLASSES)
 
