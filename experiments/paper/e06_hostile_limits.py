@@ -36,7 +36,7 @@ class LimitsAndTrustCases(HostileCases):
         return super().parts() + [self.machine_limits, self.tiny_maps, self.trusted_files, self.empty_comparisons,
                                   self.strict_gltf, self.markdown, self.what_ran, self.smaller_promises]
 
-    def _map(self, name: str, shape: tuple[int, int]) -> Path:
+    def _random_map(self, name: str, shape: tuple[int, int]) -> Path:
         path = self.tmp / f"{name}.exr"
         envmap.write(path, np.random.default_rng(sum(shape)).uniform(0.2, 1.0, shape + (3,)).astype(np.float32))
         return path
@@ -44,7 +44,7 @@ class LimitsAndTrustCases(HostileCases):
     # ------------------------------------------------------------------------- machine limits
     def machine_limits(self) -> list[dict]:
         rows = []
-        wide = tiny_scene(self.tmp, "wide", env=str(self._map("wide", (3, 16400))))
+        wide = tiny_scene(self.tmp, "wide", env=str(self._random_map("wide", (3, 16400))))
         with warnings.catch_warnings(record=True) as said:
             warnings.simplefilter("always")
             image = realtime.render(scenes.load(str(wide)))
@@ -65,12 +65,12 @@ class LimitsAndTrustCases(HostileCases):
     # ------------------------------------------------------------------------- tiny maps
     def tiny_maps(self) -> list[dict]:
         rows = []
-        code, _, err = self.cli("render", str(tiny_scene(self.tmp, "two-rows", env=str(self._map("two", (2, 8))))),
-                                "--renderer", "realtime", "-o", str(self.tmp / "two-rows.exr"))
+        two_rows = tiny_scene(self.tmp, "two-rows", env=str(self._random_map("two", (2, 8))))
+        code, _, err = self.cli("render", str(two_rows), "--renderer", "realtime", "-o", str(self.tmp / "two-rows.exr"))
         ok, line = error_line(code, err)
         rows.append(_row("tiny maps", "a 2-row map (Mitsuba reads it otherwise)", "refused (exit 2), naming the rows",
                          line[:160], ok and "3 rows" in line))
-        env = envmap.read(self._map("three", (3, 5)))
+        env = envmap.read(self._random_map("three", (3, 5)))
         d = np.array([[0.3, 0.9, -0.2], [-0.7, -0.1, 0.7], [0.0, -1.0, 0.0]])
         d /= np.linalg.norm(d, axis=1, keepdims=True)
         from groundtruth.pathtracer.variant import mitsuba  # deferred: Mitsuba is heavy, loaded for this case
@@ -88,8 +88,8 @@ class LimitsAndTrustCases(HostileCases):
     # ------------------------------------------------------------------------- trusted files
     def trusted_files(self) -> list[dict]:
         rows = []
-        scene = tiny_scene(self.tmp, "baseline")
-        record = self.tmp / "baseline.json"
+        scene = tiny_scene(self.tmp, "trusted-baseline")
+        record = self.tmp / "trusted-baseline.json"
         self.cli("gate", str(scene), "--min-psnr", "0", "--write-baseline", str(record))
         data = json.loads(record.read_text())
         entry = next(iter(data["scenes"].values()))
@@ -100,7 +100,7 @@ class LimitsAndTrustCases(HostileCases):
         rows.append(_row("trusted files", "a baseline with mse_se = -1 (it would widen the tolerance to 24 dB)",
                          "refused (exit 2) naming the file and the field", line[:160],
                          ok and "mse_se" in line and "baseline" in line))
-        results = self.tmp / "rows" / "results.jsonl"
+        results = self.tmp / "trusted-rows" / "results.jsonl"
         results.parent.mkdir(exist_ok=True)
         self.cli("sweep", str(scene), "--face-sizes", "4", "--lod-biases", "0", "--out", str(results.parent))
         row = json.loads(results.read_text().splitlines()[0])
