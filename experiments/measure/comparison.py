@@ -25,6 +25,7 @@ import groundtruth
 import realtime
 from experiments.measure.pair import Measurement, measure_pair
 from groundtruth.pathtracer import reference as pathtracer
+from realtime.engine.technique import UnsimulatedEffectWarning
 from scenes.model.render import Render
 
 #: a real-time score within this many dB of the noise floor is "at the noise floor"
@@ -35,8 +36,6 @@ def render_realtime(scene) -> Render:
     """realtime.render(scene) for a comparison: its own warning ("the scene calls for X, which the chosen
     real-time techniques do not simulate") is held back, because measure_pair says what the two
     compared images miss (pair.effects_compared), which depends on the reference too."""
-    from realtime.engine.frame import UnsimulatedEffectWarning  # deferred: the frame module loads OpenGL
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnsimulatedEffectWarning)
         return realtime.render(scene)

@@ -20,6 +20,7 @@ import realtime
 import scenes
 from experiments.paper.e06_hostile_runs import HostileCases, _row, error_line, tiny_scene
 from experiments.publish import text
+from groundtruth.pathtracer.variant import mitsuba
 from scenes.environment import envmap
 
 #: elements a rendered name must never produce in Markdown (links, images, emphasis, code)
@@ -73,8 +74,6 @@ class LimitsAndTrustCases(HostileCases):
         env = envmap.read(self._random_map("three", (3, 5)))
         d = np.array([[0.3, 0.9, -0.2], [-0.7, -0.1, 0.7], [0.0, -1.0, 0.0]])
         d /= np.linalg.norm(d, axis=1, keepdims=True)
-        from groundtruth.pathtracer.variant import mitsuba  # deferred: Mitsuba is heavy, loaded for this case
-
         mi = mitsuba()
         si = mi.SurfaceInteraction3f()
         si.wi = mi.Vector3f(-d[:, 0], -d[:, 1], -d[:, 2])

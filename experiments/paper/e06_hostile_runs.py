@@ -24,7 +24,7 @@ import numpy as np
 import groundtruth
 import realtime
 import scenes
-from experiments.measure import metrics
+from experiments.measure.pair import measure_pair
 from experiments.measure.results import folder_lock
 from experiments.paper import e06_hostile_cases as hostile
 from experiments.paper.context import CommandLine
@@ -322,12 +322,11 @@ class HostileCases:
     def _compare_row(self, label: str, ov: dict) -> dict:
         s = scenes.load("builtin:sphere-blend").with_overrides({**self._small(), **ov})
         rt, ref = realtime.render(s), groundtruth.render(s)
-        mask = metrics.common_mask(rt.mask, ref.mask)
-        psnr = metrics.psnr(metrics.display(s, rt.rgb), metrics.display(s, ref.rgb), mask)
+        psnr = measure_pair(rt, ref, s).psnr  # None for an empty comparison
         black = int(((rt.rgb == 0).all(-1) & rt.mask).sum())
+        shown = "no signal" if psnr is None else f"PSNR {psnr:.2f} dB"
         return _row("back faces", label, "both renderers apply one rule: black where n.v <= 0 unless two-sided",
-                    f"PSNR {psnr:.2f} dB; {black} of {int(rt.mask.sum())} real-time pixels black",
-                    psnr is not None and psnr > 15)
+                    f"{shown}; {black} of {int(rt.mask.sum())} real-time pixels black", psnr is not None and psnr > 15)
 
     def _inside_row(self) -> dict:
         s = scenes.load("builtin:sphere-blend").with_overrides({**self._small(), "camera.origin": [0.0, 0.0, 0.3],

@@ -126,7 +126,8 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, c.measured, test)
     m = c.metrics
     row = ResultRow(
-        id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=technique.describe(scene),
+        id=rid, spec=spec, overrides=overrides, scene=scene.name,
+        techniques=test.meta.get("techniques") or technique.describe(scene),  # what ran, not_run included
         materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
         unsimulated_effects=m["unsimulated_effects"], width=scene.camera.width, height=scene.camera.height,
         face_size=test.meta["face_size"], psnr=m["psnr"], ssim=m["ssim"], flip=m["flip"], rel_mse=m["rel_mse"],

@@ -24,12 +24,9 @@ from realtime.engine import levels, limits, technique
 from realtime.engine.context import get_context, is_software, renderer_name
 from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import SceneDrawer
+from realtime.engine.technique import UnsimulatedEffectWarning  # noqa: F401 (where warnings are filtered)
 from realtime.engine.timing import summarize, timed
 from scenes.model.render import Render
-
-
-class UnsimulatedEffectWarning(UserWarning):
-    """The scene calls for an effect that the chosen techniques do not simulate."""
 
 
 def object_distance(scene) -> float:
@@ -45,7 +42,7 @@ def warn_unsimulated(scene) -> list[str]:
     if missing:
         warnings.warn(f"{scene.name}: the scene calls for {', '.join(missing)}, which the chosen real-time "
                       "techniques do not simulate; its error includes the missing effect",
-                      UnsimulatedEffectWarning, stacklevel=3)
+                      technique.UnsimulatedEffectWarning, stacklevel=3)
     return missing
 
 

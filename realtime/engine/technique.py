@@ -33,12 +33,18 @@ from typing import TYPE_CHECKING, Any
 
 from scenes.model import technique_registry
 from scenes.model.technique_registry import EFFECT_KEYS, NOTHING, OPTIONAL_EFFECTS, Declaration
+from scenes.storage.errors import PluginDeclarationError
 
 if TYPE_CHECKING:  # the interface is importable without OpenGL; only the techniques' modules need it
     import moderngl
 
-__all__ = ["EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "build", "choose", "declaration_of", "describe",
-           "needed", "not_run", "owner_of", "pairs", "simulated_effects", "unsimulated_effects"]
+class UnsimulatedEffectWarning(UserWarning):
+    """The scene calls for an effect that the chosen techniques do not simulate."""
+
+
+__all__ = ["UnsimulatedEffectWarning", "EFFECT_KEYS", "NOTHING", "NO_CUBE", "Frame", "Technique", "build", "choose",
+           "declaration_of", "describe", "needed", "not_run", "owner_of", "pairs", "simulated_effects",
+           "unsimulated_effects"]
 
 #: `chain_level` of a technique that reads neither the cube map nor its chain (e.g. the light array)
 NO_CUBE = -1
@@ -178,7 +184,11 @@ def choose(scene, frame: Frame) -> list[Technique]:
 def build(effect: str, value: str, frame: Frame) -> Technique:
     """The technique of `realtime.<effect> = "<value>"`, constructed with its declaration."""
     decl = declaration_of(effect, value)
-    technique = decl.load()(frame)
+    cls = decl.load()
+    if not (isinstance(cls, type) and issubclass(cls, Technique)):
+        raise PluginDeclarationError(f"{decl.label}: implementation {decl.implementation!r} is not a subclass of "
+                                     "realtime.engine.technique.Technique")
+    technique = cls(frame)
     technique.declaration = decl
     return technique
 
@@ -197,10 +207,10 @@ def unsimulated_effects(scene) -> list[str]:
     as e.g. "glossy occlusion" (PRT shadows the diffuse light only)."""
     missing = sorted(scene.effects - simulated_effects(scene))
     for key, value in needed(scene):
-        covers = declaration_of(key, value).covers
-        if covers is not None:
+        decl = declaration_of(key, value)
+        if decl.covers is not None:
             missing += [f"{lobe} {key}" for lobe in ("diffuse", "glossy")
-                        if lobe in scene.effects and not covers(lobe, scene.realtime)]
+                        if lobe in scene.effects and not decl.call("covers", lobe, scene.realtime)]
     return missing
 
 
@@ -218,7 +228,7 @@ def describe(scene) -> dict[str, Any]:
         out[key] = value
     for decl in technique_registry.chosen(rt):
         if decl.describe is not None:
-            out.update(decl.describe(rt))
+            out.update(decl.call("describe", rt))
     idle = not_run(scene)
     if idle:  # only then: the description of a scene whose choices all run is unchanged
         out["not_run"] = idle

@@ -126,7 +126,14 @@ def _relative_inside(path: Path, uri: str, what: str) -> Path:
     rel = PurePosixPath(unquote(parsed.path))
     if rel.is_absolute() or ".." in rel.parts or "\\" in uri:
         raise MeshError(f"{path}: {what} = {uri[:80]!r}: the path must stay inside the glTF's folder")
-    return path.parent.joinpath(*rel.parts)
+    target = path.parent.joinpath(*rel.parts)
+    try:  # a symbolic link on the way may lead out of the folder: judge where the path really leads
+        inside = target.resolve().is_relative_to(path.parent.resolve())
+    except (OSError, RuntimeError):  # a link loop
+        inside = False
+    if not inside:
+        raise MeshError(f"{path}: {what} = {uri[:80]!r}: the path leads outside the glTF's folder (a symbolic link)")
+    return target
 
 
 def _buffer_bytes(path: Path, buffer: dict, i: int, glb_bin: bytes | None) -> int:

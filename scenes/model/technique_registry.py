@@ -35,10 +35,17 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cache
-from importlib import metadata
+from importlib import import_module, metadata, resources
 from typing import Any
 
-from scenes.storage.errors import MissingCapability, PluginDeclarationError, PluginError, PluginLoadError, SceneError
+from scenes.storage.errors import (
+    InputError,
+    MissingCapability,
+    PluginDeclarationError,
+    PluginError,
+    PluginLoadError,
+    SceneError,
+)
 
 GROUP = "iblcheck.techniques"
 #: the distribution whose techniques are builtins
@@ -47,6 +54,8 @@ BUILTIN_DISTRIBUTION = "iblcheck"
 EFFECT_KEYS = ("diffuse", "glossy", "occlusion", "interreflection")
 #: the choice of no technique: the effect is ignored (allowed for occlusion and interreflection only)
 NOTHING = "none"
+#: timing keys the frame itself reports: a technique's would corrupt them
+RESERVED_TIMING_KEYS = frozenset({"draw", "total", "precompute", "background", "frame"})
 #: the effect keys that may choose NOTHING
 OPTIONAL_EFFECTS = ("occlusion", "interreflection")
 
@@ -189,10 +198,23 @@ class Declaration:
     def choice(self) -> str:
         return f'realtime.{self.effect} = "{self.name}"'
 
+    def call(self, hook: str, *args: Any) -> Any:
+        """Its hook `hook` (validate, describe, covers, ...) applied to `args`. A plugin's hook that fails
+        other than by refusing the scene (an InputError) is the plugin's bug: one line naming the plugin
+        (PluginLoadError, exit 3), never a traceback, so a broken plugin cannot take a builtin down."""
+        fn = getattr(self, hook)
+        if self.builtin:
+            return fn(*args)
+        try:
+            return fn(*args)
+        except InputError:
+            raise
+        except Exception as exc:
+            raise PluginLoadError(f"{self.label}: its {hook} hook failed: {type(exc).__name__}: "
+                                  f"{_one_line(exc)}") from None
+
     def load(self) -> type:
         """Its OpenGL class (imports it, and so moderngl)."""
-        from importlib import import_module  # the one import of a technique's GL module: on use only
-
         module, _, cls = self.implementation.partition(":")
         try:
             return getattr(import_module(module), cls)
@@ -283,6 +305,14 @@ def registry() -> Registry:
     return Registry((*builtins, *(d for d in out if not d.builtin)), tuple(broken))
 
 
+def _package_file(package: str, name: str) -> bool:
+    """Whether `package` (importable) holds the file `name`."""
+    try:
+        return resources.files(package).joinpath(name).is_file()
+    except (ImportError, TypeError, ValueError):
+        return False
+
+
 def check_declaration(d: Declaration, label: str, others: Sequence[Declaration]) -> None:
     """Refuse a declaration that is incomplete, has wrong types, clashes with another or has bad
     parameter defaults (PluginDeclarationError naming the plugin)."""
@@ -306,12 +336,21 @@ def check_declaration(d: Declaration, label: str, others: Sequence[Declaration])
     for key in ("reads", "extra_timing_keys", "fragment_glsl", "vertex_glsl", "ladder"):
         if not isinstance(getattr(d, key), tuple):
             raise bad(f"{key} must be a tuple, got {type(getattr(d, key)).__name__}")
+    if not all(isinstance(k, str) and k for k in d.extra_timing_keys):
+        raise bad("extra_timing_keys must hold non-empty strings")
+    reserved = RESERVED_TIMING_KEYS & {d.timing_key, *d.extra_timing_keys}
+    if reserved or any(k.endswith("_p90") for k in (d.timing_key, *d.extra_timing_keys)):
+        raise bad(f"timing keys {sorted(reserved) or [d.timing_key, *d.extra_timing_keys]}: the frame's own keys "
+                  f"({', '.join(sorted(RESERVED_TIMING_KEYS))}) and names ending in _p90 are not a technique's")
     if not isinstance(d.axes, Mapping) or not all(isinstance(v, tuple) and v for v in d.axes.values()):
         raise bad("axes must map scene keys to non-empty tuples of values")
     if not all(isinstance(p, dict) for p in d.ladder):
         raise bad("ladder must be a tuple of override dicts")
     if (d.fragment_glsl or d.vertex_glsl) and not d.package:
         raise bad("declares GLSL files but no package to find them in")
+    missing = [f for f in (*d.fragment_glsl, *d.vertex_glsl) if not _package_file(d.package, f)]
+    if missing:
+        raise bad(f"declares GLSL files its package {d.package!r} does not hold: {', '.join(missing)}")
     for hook in ("validate", "validate_objects", "describe", "covers", "effective_settings"):
         if getattr(d, hook) is not None and not callable(getattr(d, hook)):
             raise bad(f"{hook} must be a function")
@@ -428,16 +467,19 @@ def table_hint(table: str) -> str:
 
 
 def validate(rt, given: dict, where: str) -> None:
-    """Every registered technique's rules against the scene's choices (Declaration.validate)."""
+    """Every builtin technique's rules against the scene's choices (Declaration.validate), and a plugin's
+    where the scene chooses it: a plugin's rules cannot refuse, nor its bugs break, a scene without it."""
     for d in registry().declarations:
+        if not d.builtin and getattr(rt, d.effect) != d.name:
+            continue
         if d.validate is not None:
-            d.validate(rt, given, where)
+            d.call("validate", rt, given, where)
 
 
 def validate_objects(rt, objects, where: str) -> None:
     for d in chosen(rt):
         if d.validate_objects is not None:
-            d.validate_objects(rt, objects, where)
+            d.call("validate_objects", rt, objects, where)
 
 
 def combination_error(rt, key_a: str, key_b: str, why: str, where: str) -> SceneError:

@@ -152,8 +152,8 @@ def test_ssim_full_gives_the_map_and_the_pixels_it_averages(renders):
     assert metrics.ssim(a[:6, :6], b[:6, :6], everything[:6, :6], full=True) == (None, None, None)
 
 
-def test_each_expensive_step_runs_once_per_pair(scene, renders, monkeypatch):
-    test, ref, ref2 = renders
+def count_expensive_steps(monkeypatch) -> dict[str, int]:
+    """{step: calls so far} of the display transform, FLIP and SSIM, counted from now on."""
     calls = {"display": 0, "flip": 0, "ssim": 0}
 
     def counted(name, fn):
@@ -165,6 +165,12 @@ def test_each_expensive_step_runs_once_per_pair(scene, renders, monkeypatch):
     monkeypatch.setattr(metrics, "display", counted("display", metrics.display))
     monkeypatch.setattr(metrics, "flip_map", counted("flip", metrics.flip_map))
     monkeypatch.setattr(metrics, "structural_similarity", counted("ssim", metrics.structural_similarity))
+    return calls
+
+
+def test_each_expensive_step_runs_once_per_pair(scene, renders, monkeypatch):
+    test, ref, ref2 = renders
+    calls = count_expensive_steps(monkeypatch)
     comparison.compare(test, ref, scene, ref2)
     assert calls == {"display": 3, "flip": 1, "ssim": 1}
 
@@ -210,17 +216,7 @@ def test_a_sweep_row_and_the_gate_measure_each_pair_once(tmp_path, monkeypatch):
     from experiments.runs import rows
 
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
-    calls = {"display": 0, "flip": 0, "ssim": 0}
-
-    def counted(name, fn):
-        def wrapper(*a, **k):
-            calls[name] += 1
-            return fn(*a, **k)
-        return wrapper
-
-    monkeypatch.setattr(metrics, "display", counted("display", metrics.display))
-    monkeypatch.setattr(metrics, "flip_map", counted("flip", metrics.flip_map))
-    monkeypatch.setattr(metrics, "structural_similarity", counted("ssim", metrics.structural_similarity))
+    calls = count_expensive_steps(monkeypatch)
     row = rows.run_row(tmp_path / "out", "builtin:sphere-phong", TINY)
     assert calls == {"display": 3, "flip": 1, "ssim": 1}
     # the row's numbers, recomputed from what it kept and its (cached) references

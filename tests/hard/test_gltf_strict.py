@@ -159,3 +159,17 @@ def test_ascii_stl_without_endsolid_says_so(tmp_path):
         meshes.load_file(tmp_path / "cut.stl")
     (tmp_path / "ok.stl").write_text("solid t\n" + facet + "endsolid t\n")  # the control
     assert len(meshes.load_file(tmp_path / "ok.stl").indices) == 1
+
+
+def test_a_symbolic_link_out_of_the_folder_is_refused(tmp_path):
+    outside = tmp_path / "outside"
+    outside.mkdir()
+    (outside / "tri.bin").write_bytes(TRIANGLE)
+    scene_dir = tmp_path / "scene"
+    scene_dir.mkdir()
+    (scene_dir / "sub").symlink_to(outside)
+    with pytest.raises(MeshError, match="leads outside"):
+        meshes.load_file(write(scene_dir, document("sub/tri.bin")))
+    (scene_dir / "inside").mkdir()  # the control: a real sub-folder
+    (scene_dir / "inside" / "tri.bin").write_bytes(TRIANGLE)
+    assert len(meshes.load_file(write(scene_dir, document("inside/tri.bin"), "ok.gltf")).indices) == 1

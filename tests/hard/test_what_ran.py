@@ -110,6 +110,19 @@ def test_a_technique_whose_hook_says_it_has_no_work_is_not_run(tiny, monkeypatch
     np.testing.assert_array_equal(r.rgb, none.rgb)
 
 
+@pytest.mark.mitsuba
+def test_a_row_records_what_did_not_run(tmp_path, monkeypatch):
+    """The row of a configuration whose technique said it had no work carries that in its techniques,
+    as the render's metadata does (not only what the scene chose)."""
+    from experiments.runs import rows
+
+    monkeypatch.setattr(technique.declaration_of("occlusion", "vct").load(), "has_work", lambda self, frame: False)
+    monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
+    row = rows.run_row(tmp_path / "out", str(write_tiny(tmp_path)), VCT_TORUS)
+    assert row.techniques["occlusion"] == "vct"
+    assert row.techniques["not_run"] == {"occlusion": "its technique has no work in this scene"}
+
+
 def test_a_lobe_the_scene_calls_for_is_always_shaded(tiny, monkeypatch):
     """A diffuse or glossy lobe the scene has cannot be left out (the shading pass needs it): its
     technique is not asked, so a hook saying False changes nothing (negative control of the hook)."""

@@ -208,3 +208,16 @@ def test_an_e7_row_of_the_plugin_is_measured(site, tmp_path):
                               "IBLCHECK_CACHE": str(tmp_path / "cache")}, timeout=600)
     diffuse, psnr, total_ms = json.loads(out.stdout.strip().splitlines()[-1])
     assert diffuse == "hemisphere" and 10.0 < psnr < 60.0 and total_ms > 0.0
+
+
+def test_commands_that_list_every_technique_say_a_plugin_was_left_out(tmp_path):
+    """`sweep --technique-axes` and `paper` would leave a broken plugin out silently: one warning line names
+    it (the sweep's bad --face-sizes then ends the run before anything renders)."""
+    site = broken_copy(tmp_path, _import_error)
+    r = iblcheck(site, "sweep", "builtin:sphere-diffuse", "--technique-axes", "--face-sizes", "abc", "--out",
+                 str(tmp_path / "s"), cwd=tmp_path)
+    said = [x for x in r.stderr.splitlines() if x.startswith("warning:")]
+    assert r.returncode == 2 and len(said) == 1 and f"'{DIST}'" in said[0] and "left out" in said[0], r.stderr
+    plain = iblcheck(site, "sweep", "builtin:sphere-diffuse", "--face-sizes", "abc", "--out", str(tmp_path / "t"),
+                     cwd=tmp_path)
+    assert plain.returncode == 2 and "warning:" not in plain.stderr  # the control: no technique listed

@@ -115,6 +115,10 @@ def test_a_plugin_is_a_builtins_peer(plugins):
     (dataclasses.replace(GLOW, parameters=dataclass(frozen=True)(
         type("Bare", (), {"__annotations__": {"strength": "float"}, "strength": 1.0}))),
      "realtime.glow.strength has no check"),
+    (dataclasses.replace(GLOW, timing_key="draw"), "the frame's own keys"),
+    (dataclasses.replace(GLOW, extra_timing_keys=("total",)), "the frame's own keys"),
+    (dataclasses.replace(GLOW, package="scenes.model", fragment_glsl=("glow.glsl",)),
+     "does not hold: glow.glsl"),
     ("not a declaration", "must name a Declaration or a sequence of them"),
 ])
 def test_a_bad_declaration_is_refused_in_one_line_and_the_builtins_still_work(plugins, value, says):
@@ -129,6 +133,22 @@ def test_a_bad_declaration_is_refused_in_one_line_and_the_builtins_still_work(pl
     scene_model.load("builtin:sphere-diffuse").with_overrides({"realtime.diffuse": "irradiance_map"})
     with pytest.raises(PluginDeclarationError, match="glow-plugin"):  # choosing it is the error
         scene_model.load("builtin:sphere-diffuse").with_overrides({"realtime.diffuse": "glow"})
+
+
+def _crashing_hook(*_args):
+    raise AttributeError("'Realtime' object has no attribute 'glow_typo'")
+
+
+@pytest.mark.parametrize("hook", ["validate", "describe"])
+def test_a_plugin_hook_that_crashes_is_one_line_and_only_where_it_is_chosen(plugins, hook):
+    """A plugin's bug in a hook: scenes without the plugin are untouched; the scene that chooses it gets one
+    line naming the plugin and the hook (exit 3), not an internal error."""
+    plugins(FakeEntryPoint("glow", "glow-plugin", dataclasses.replace(GLOW, **{hook: _crashing_hook})))
+    builtin = scene_model.load("builtin:sphere-diffuse")
+    assert technique.describe(builtin)["diffuse"] == "sh"
+    with pytest.raises(PluginLoadError, match=rf"'glow-plugin' .*: its {hook} hook failed: AttributeError") as e:
+        technique.describe(builtin.with_overrides({"realtime.diffuse": "glow"}))
+    assert "\n" not in str(e.value)
 
 
 def test_a_plugin_that_cannot_be_imported(plugins):
