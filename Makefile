@@ -19,15 +19,17 @@ $(STAMP): pyproject.toml
 system-deps:
 	@bash .ci/system-deps.sh
 
-# the import contracts of docs/architecture.md first (seconds), then the tests
+# the import contracts of docs/architecture.md first (seconds), then the tests on two processes (pytest-xdist;
+# `-n 0` runs them in one, e.g. `make test PYTEST_ARGS="-n 0"`)
+PYTEST_ARGS ?= -n 2
 test: setup
 	@bash .ci/system-deps.sh --test
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q $(PYTEST_ARGS)
 
 test-fast: setup
 	$(VENV)/bin/lint-imports
-	$(PY) -m pytest -q -m "not slow"
+	$(PY) -m pytest -q $(PYTEST_ARGS) -m "not slow"
 
 paper: setup
 	$(VENV)/bin/iblcheck paper --out reports/paper

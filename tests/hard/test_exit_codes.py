@@ -298,7 +298,10 @@ def test_ctrl_c_exits_130_and_the_sweep_resumes(tmp_path):
     cmd = [sys.executable, "-m", "experiments.cli.main", "sweep", str(scene), "--face-sizes", "1,2,4,8", "--lod-biases",
            "0,1,2,3,4,5,6,7", "--out", str(tmp_path / "sw")]
     env = {**os.environ, "PYTHONPATH": str(ROOT), "IBLCHECK_CACHE": str(tmp_path / "cache")}
-    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    # the sweep gets Ctrl-C's default disposition whatever this process inherited (a child started with
+    # SIGINT ignored, as a test runner's worker may be, never sees the interrupt)
+    proc = subprocess.Popen(cmd, cwd=ROOT, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     results = tmp_path / "sw" / RESULTS
     deadline = time.time() + 120
     while time.time() < deadline and proc.poll() is None:
