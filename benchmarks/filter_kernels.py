@@ -1,4 +1,4 @@
-"""Per-run times of the two accuracy-ladder filters on this machine (docs/design.md section 7: medians
+"""Per-run times of the two accuracy-ladder filters on this machine (docs/contract.md section 7: medians
 of wall time around the work with ctx.finish(), warm-up excluded).
 
     .venv/bin/python benchmarks/filter_kernels.py [--runs 20] [--json out.json]

@@ -1,4 +1,4 @@
-"""Real-time frame times on this machine (docs/design.md section 7: medians, warm-up excluded).
+"""Real-time frame times on this machine (docs/contract.md section 7: medians, warm-up excluded).
 
     .venv/bin/python benchmarks/realtime_frames.py [--frames 50] [--json out.json]
 

@@ -3,7 +3,7 @@
     .venv/bin/python benchmarks/reference_convergence.py [--size 256] [--repeats 3] [--json out.json]
 
 1. For sphere-diffuse and sphere-blend at SIZE x SIZE: spp in 64 ... 4096, the noise floor
-   (docs/design.md section 7, experiments.measure.metrics.noise_floor_psnr) and the median render time; the
+   (docs/contract.md section 7, experiments.measure.metrics.noise_floor_psnr) and the median render time; the
    first spp whose floor reaches 45 dB is the "time to a 45 dB reference".
 2. The paper plugin against Mitsuba's built-in `diffuse` on sphere-diffuse at equal spp (the
    same scene with reference.model = "physical"): median render times and their ratio, measured

@@ -1,4 +1,4 @@
-"""Real-time environment lighting in moderngl: the paper's method (Gu et al. 2006, docs/design.md
+"""Real-time environment lighting in moderngl: the paper's method (Gu et al. 2006, docs/contract.md
 section 3) and the techniques it is measured against (docs/architecture.md).
 
     realtime.render(scene) -> Render

@@ -39,7 +39,7 @@ def unit_sphere_hits(camera, margin_px: float = 2.5):
 
 def box_chain(env, base: int) -> list:
     """The paper's mip chain built here in numpy: level 0 the Mitsuba-convention lookup of every texel
-    direction of a base x base cube (docs/design.md section 2), then 2 x 2 box means down to 1 x 1; float64."""
+    direction of a base x base cube (docs/contract.md section 2), then 2 x 2 box means down to 1 x 1; float64."""
     from scenes.environment import cubemap, envmap
 
     levels = [envmap.lookup(env, cubemap.texel_directions(base)).astype(np.float64)]

@@ -1,4 +1,4 @@
-"""The `iblcheck` command line (docs/design.md, section 6).
+"""The `iblcheck` command line (docs/contract.md, section 6).
 
 Exit codes (each keeps one meaning, so a crashed CI gate never reads as a failed one):
 

@@ -1,4 +1,4 @@
-"""Real-time image against a reference: the metrics of docs/design.md section 7 and the timings.
+"""Real-time image against a reference: the metrics of docs/contract.md section 7 and the timings.
 
     compare(test, reference, scene, reference2=None) -> dict           # the keys of `iblcheck compare`
     compare_renders(test, reference, scene, reference2=None) -> Comparison   # the dict and the Measurement

@@ -9,14 +9,14 @@ Each rung of the spp ladder is rendered with two seeds through `groundtruth.path
 (so it is rendered once and then read from the reference cache; on a cache hit the stored render
 time, `meta["render_ms"]`, comes back as `timings["render"]`). A rung's quality is its noise
 floor, `metrics.noise_floor_psnr` of the two seeds' display images: the PSNR of one render of that
-rung against the noise-free truth (docs/design.md section 7).
+rung against the noise-free truth (docs/contract.md section 7).
 
 Time. A rung's `seconds` is the first seed's render time as measured: Mitsuba's image pass, which
 includes building the scene and, on the first render of a process (or of a new kernel), Dr.Jit's
 JIT compilation of the kernels. `time_model` separates that fixed part from the cost of sampling
 with a robust line fit (Theil-Sen) of seconds against spp; `equal_quality_s` reports the sampling
 time alone, `per_spp_s * spp`, as the real-time side reports its frames without shader compilation
-and warm-up (docs/design.md section 7). The fixed part is `TimeModel.fixed_s`.
+and warm-up (docs/contract.md section 7). The fixed part is `TimeModel.fixed_s`.
 
 Monte Carlo law: the error variance of an unbiased estimator falls as 1/spp, so PSNR rises by
 10 log10(k) dB for k times the samples (+6.02 dB per 4x); equal_quality_s extrapolates with it

@@ -1,4 +1,4 @@
-"""Image metrics on a common mask (docs/design.md section 7), plain functions with explicit parameters.
+"""Image metrics on a common mask (docs/contract.md section 7), plain functions with explicit parameters.
 
 Conventions:
 - Images are (H, W, 3). `psnr`, `ssim` and `flip` take display values (tone-mapped sRGB in
@@ -176,7 +176,7 @@ def noise_floor_psnr(display_a: np.ndarray, display_b: np.ndarray, mask: np.ndar
     """The best PSNR any image can reach against a reference with this much noise.
 
     Two renders with different seeds differ by noise of twice the variance of either, so
-    PSNR(reference, truth) = PSNR(a, b) + 10 log10(2). (docs/design.md section 7 writes "minus 3 dB";
+    PSNR(reference, truth) = PSNR(a, b) + 10 log10(2). (docs/contract.md section 7 writes "minus 3 dB";
     the sign is corrected here: the noise-free quadrature scores PSNR(a, b) + 2.9 to 3.0 dB
     against a reference, see tests/groundtruth/test_quadrature.py.)
     """

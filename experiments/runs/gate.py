@@ -3,7 +3,7 @@
 Thresholds per scene: the command line's (`--min-psnr`, `--min-ssim`, `--max-flip`) override
 the scene's `[gate]` table. A scene with no threshold, no baseline to compare with and none to
 write is a usage error (a gate that cannot fail is no gate). Exit code 0 when every check passes, 1 when any fails
-(docs/design.md section 6); bad scenes and a bad baseline file are refused before anything renders
+(docs/contract.md section 6); bad scenes and a bad baseline file are refused before anything renders
 (exit 2). `--junit FILE` writes JUnit XML: one test case per scene, a <failure> naming each failed
 check, properties with every value; `--markdown FILE` a short table for a pull-request comment.
 Names are cleaned of control characters (experiments/publish/text.py: XML 1.0 cannot hold them; Markdown

@@ -2,7 +2,7 @@
 
 Axes are any scene keys (`--axis realtime.glossy=box,prefiltered`, repeatable) plus the shortcuts
 `--face-sizes`, `--lod-biases`, `--exponents`, `--f0s`, `--envs`, `--lod-mappings`. An axis that
-cannot change a configuration's image is dropped from that configuration (docs/design.md section 4), and
+cannot change a configuration's image is dropped from that configuration (docs/contract.md section 4), and
 the configurations left are deduplicated:
 - a technique choice (`realtime.diffuse`, `realtime.glossy`, ...) matters only when the scene has
   that effect;

@@ -20,7 +20,7 @@ itself: a constant environment is reproduced exactly, the horizon loss is kept.
 
 Lobes narrower than the finest grid can resolve (N > ~2.6e4) are integrated in the lobe's own
 frame instead (Gauss-Legendre in t = cos^(N+1) alpha, uniform in phi), where the bilinear
-environment is smooth. No occlusion: exact for one convex object (docs/design.md section 4).
+environment is smooth. No occlusion: exact for one convex object (docs/contract.md section 4).
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The paper's reflectance in plain numpy (docs/design.md section 3), for the quadrature and tests.
+"""The paper's reflectance in plain numpy (docs/contract.md section 3), for the quadrature and tests.
 
     f(v, l) cos = (1 - F) kd / pi cos + F ks (N + 1) / (2 pi) max(r . l, 0)^N     for n . l > 0
                   0                                                             below the horizon

@@ -1,4 +1,4 @@
-"""scenes.Scene -> a Mitsuba 3 scene (docs/design.md section 2: both renderers must agree exactly).
+"""scenes.Scene -> a Mitsuba 3 scene (docs/contract.md section 2: both renderers must agree exactly).
 
 - Environment: the `envmap` emitter made from the very array `Environment.radiance()` returns
   (scale already applied), turned about +Y by `to_world = rotate([0, 1, 0], rotation_deg)`.
@@ -13,7 +13,7 @@
 - Materials: `reference.model = "paper"` uses the `iblcheck_paper` plugin (the same reflectance);
   `"physical"` maps to Mitsuba's own `diffuse` or `roughplastic` (see `physical_material`). Both are
   one-sided (black seen from behind the shading normal); `material.two_sided` wraps them in `twosided`.
-- Integrator (docs/design.md section 4): no occlusion -> direct lighting only (`path` with max_depth 2:
+- Integrator (docs/contract.md section 4): no occlusion -> direct lighting only (`path` with max_depth 2:
   emitter sampling and BSDF sampling with MIS); occlusion -> full path tracing with
   `reference.max_depth`; an explicit `reference.integrator` overrides.
 """

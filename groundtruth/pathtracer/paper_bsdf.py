@@ -1,4 +1,4 @@
-"""The paper's reflectance as a Mitsuba 3 BSDF plugin, `iblcheck_paper` (docs/design.md section 3).
+"""The paper's reflectance as a Mitsuba 3 BSDF plugin, `iblcheck_paper` (docs/contract.md section 3).
 
 Local frame: the shading normal is +Z, `si.wi` points towards the viewer (v), `wo` towards the
 light (l). Per unit projected solid angle the BSDF value times cos(theta_o) is

@@ -6,7 +6,7 @@ Two passes per reference:
    pixel's samples that hit an object (Mitsuba's alpha in pass 1 is 1 wherever
    the environment shows, so it is no mask). A pixel is covered when at least half of it is.
 
-`render_pair` adds a second render with another seed, for the noise floor (docs/design.md section 7).
+`render_pair` adds a second render with another seed, for the noise floor (docs/contract.md section 7).
 """
 
 from __future__ import annotations

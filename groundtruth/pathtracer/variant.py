@@ -1,4 +1,4 @@
-"""Choosing and importing Mitsuba's variant safely (docs/design.md section 8).
+"""Choosing and importing Mitsuba's variant safely (docs/contract.md section 8).
 
 Order: `IBLCHECK_VARIANT` if set; else `cuda_ad_rgb` when an NVIDIA GPU works; else
 `llvm_ad_rgb` when a libLLVM of version 16 or newer is found; else `scalar_rgb` with a warning.

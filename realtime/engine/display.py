@@ -63,7 +63,7 @@ def tonemap_gpu(rgb: np.ndarray, key: float, white: float, exposure: float, adap
 
 def display_ms(rgb: np.ndarray, key: float, white: float, exposure: float, adapt_lum: float,
                frames: int = 30, warmup: int = 5) -> dict[str, float]:
-    """Median and p90 milliseconds of the display pass on an image of rgb's size (docs/design.md section 7)."""
+    """Median and p90 milliseconds of the display pass on an image of rgb's size (docs/contract.md section 7)."""
     ctx = get_context()
     p = DisplayPass(ctx, rgb)
     try:

@@ -1,4 +1,4 @@
-"""How the environment texture is stored and filtered (`realtime.parameterization`, docs/design.md section 9).
+"""How the environment texture is stored and filtered (`realtime.parameterization`, docs/contract.md section 9).
 
     cube             the paper's (Greene 1986): realtime.engine.gpu.EnvironmentFilter, unchanged
     dual_paraboloid  Heidrich & Seidel 1998: two maps of the hemispheres z >= 0 and z < 0 (world frame)

@@ -1,4 +1,4 @@
-"""One place that composes a real-time frame from the scene's techniques (docs/design.md section 9).
+"""One place that composes a real-time frame from the scene's techniques (docs/contract.md section 9).
 
     render(scene) -> Render
 
@@ -10,7 +10,7 @@ whose timing key is `filter` (the paper's SH projection), other techniques have 
 (`irradiance`, `prefilter`, ...); then the shading pass (`draw`). `total` is the sum of the per-frame
 keys and `draw`. The environment behind the objects is timed apart as `background` (it is
 not part of any method and is masked out of metrics). Timings are medians and p90 over
-`realtime.timing_frames` frames after `realtime.warmup_frames` warm-up frames (docs/design.md section 7).
+`realtime.timing_frames` frames after `realtime.warmup_frames` warm-up frames (docs/contract.md section 7).
 """
 
 from __future__ import annotations

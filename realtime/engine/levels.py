@@ -1,6 +1,6 @@
 """Which mip level the paper's method reads, and the LOD of a glossy lookup (pure functions).
 
-Level selection (docs/design.md section 3, step 2): a fixed `face_size` s, or `"auto"`: s linear in the
+Level selection (docs/contract.md section 3, step 2): a fixed `face_size` s, or `"auto"`: s linear in the
 object's distance from the camera, from 64 at `AUTO_NEAR` down to 8 at `AUTO_FAR`, snapped to the
 nearest power of two in log2 (the paper picks coarser levels for distant objects).
 """

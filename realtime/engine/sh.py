@@ -1,10 +1,10 @@
 """SH projection (the paper's SH9, and orders 3-4) and the irradiance matrices M of the paper
 (numpy reference implementation).
 
-Projection (docs/design.md section 3, step 3): L_lm = sum over texels of L(w) Y_lm(w) dOmega(w), with
+Projection (docs/contract.md section 3, step 3): L_lm = sum over texels of L(w) Y_lm(w) dOmega(w), with
 exact texel solid angles (cube faces: `scenes.environment.cubemap.texel_solid_angles`; equirect maps:
 `scenes.environment.directions.equirect_solid_angles`). `order` 2 (default) is the paper's 9 coefficients; 3 and 4
-give 16 and 25 (docs/design.md section 9, `sh_order`; basis: `scenes.environment.shbasis.sh_basis`).
+give 16 and 25 (docs/contract.md section 9, `sh_order`; basis: `scenes.environment.shbasis.sh_basis`).
 
 Irradiance (Ramamoorthi & Hanrahan 2001, "An efficient representation for irradiance environment
 maps", eq. 12): E(n) = n^T M n with n = (x, y, z, 1) and, per colour channel,

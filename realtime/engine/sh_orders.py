@@ -1,4 +1,4 @@
-"""SH irradiance of order 2, 3 or 4 on the GPU (docs/design.md section 9, `diffuse = "sh"`, `sh_order`).
+"""SH irradiance of order 2, 3 or 4 on the GPU (docs/contract.md section 9, `diffuse = "sh"`, `sh_order`).
 
 The paper's SH9 path (`EnvironmentFilter.project_sh`: sh_project.comp, sh_reduce.comp, the matrices M)
 stays as it is. This module projects a level of the same cube map onto (order + 1)^2 coefficients

@@ -1,4 +1,4 @@
-"""Frame timing per docs/design.md section 7: wall time around the work with ctx.finish()."""
+"""Frame timing per docs/contract.md section 7: wall time around the work with ctx.finish()."""
 
 from __future__ import annotations
 

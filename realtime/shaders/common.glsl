@@ -1,5 +1,5 @@
 // Shared by the compute and fragment shaders (inlined by realtime.gpu.shader_source).
-// Conventions: docs/design.md section 2. Mirrors scenes/environment/cubemap.py and scenes/environment/envmap.py exactly.
+// Conventions: docs/contract.md section 2. Mirrors scenes/environment/cubemap.py and scenes/environment/envmap.py exactly.
 const float PI = 3.14159265358979323846;
 
 // OpenGL cube-map face table: face coordinates sc, tc in [-1, 1] -> unnormalised direction.

@@ -1,5 +1,5 @@
 #version 430
-// The shading pass: the paper's reflectance (docs/design.md) with the diffuse irradiance and the
+// The shading pass: the paper's reflectance (docs/contract.md) with the diffuse irradiance and the
 // glossy radiance of the scene's techniques (docs/architecture.md). The host #defines the scene's
 // effects (HAS_DIFFUSE, HAS_GLOSSY, HAS_FRESNEL), each technique's own defines (DIFFUSE_SH9, ...) and
 // the MATERIAL_* codes of scenes/model/materials.py.

@@ -1,6 +1,6 @@
 """Directions on the sphere: the equirectangular (lat-long) map and rotations about +Y.
 
-Convention (docs/design.md section 2, Mitsuba's `envmap`): world is right-handed, +Y up, and a
+Convention (docs/contract.md section 2, Mitsuba's `envmap`): world is right-handed, +Y up, and a
 direction d maps to
 
     u = atan2(d.x, -d.z) / (2 pi)   in [0, 1)   (u = 0 is -Z, u = 0.25 is +X, u = 0.5 is +Z)

@@ -1,4 +1,4 @@
-"""The light array: an environment map stood in for by N distant lights (docs/design.md section 9).
+"""The light array: an environment map stood in for by N distant lights (docs/contract.md section 9).
 
 Two placements, both exact in power: every light carries the environment's radiance integrated over
 its own region of the sphere, so the lights' powers sum to the map's integral for every count.

@@ -1,5 +1,5 @@
-"""The real SH basis on world (x, y, z) directions: the paper's SH9 (docs/design.md section 3, eq. 8)
-and its extension to orders 3 and 4 (16 and 25 coefficients, docs/design.md section 9, `sh_order`).
+"""The real SH basis on world (x, y, z) directions: the paper's SH9 (docs/contract.md section 3, eq. 8)
+and its extension to orders 3 and 4 (16 and 25 coefficients, docs/contract.md section 9, `sh_order`).
 
 Order: Y00, Y1-1, Y10, Y11, Y2-2, Y2-1, Y20, Y21, Y22 (Ramamoorthi & Hanrahan 2001, eq. 3):
     Y00 = 0.282095;  Y1-1 = 0.488603 y;  Y10 = 0.488603 z;  Y11 = 0.488603 x;

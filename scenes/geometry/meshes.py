@@ -2,7 +2,7 @@
 
 A `Mesh` is an indexed triangle list with one unit normal per vertex (float32, so both
 renderers draw bit-identical geometry), counter-clockwise winding seen from outside, and a
-`convex` flag (a convex object cannot shadow or reflect onto itself, docs/design.md section 4).
+`convex` flag (a convex object cannot shadow or reflect onto itself, docs/contract.md section 4).
 Builtin meshes are centred at the origin and fit in the unit sphere (`sphere` has radius 1).
 """
 
@@ -50,7 +50,7 @@ class Mesh:
         return int(self.indices.shape[0])
 
     def transformed(self, scale: float, rotate_deg, translate) -> Mesh:
-        """Scale, then rotate about X, Y, Z (degrees), then translate (docs/design.md section 2)."""
+        """Scale, then rotate about X, Y, Z (degrees), then translate (docs/contract.md section 2)."""
         r = rotation_xyz(rotate_deg)
         p = (self.positions.astype(np.float64) * scale) @ r.T + np.asarray(translate, dtype=np.float64)
         n = normalize(self.normals.astype(np.float64) @ r.T)

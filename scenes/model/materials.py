@@ -1,4 +1,4 @@
-"""The material types of the paper's model (docs/design.md section 3, step 7): one table, read everywhere.
+"""The material types of the paper's model (docs/contract.md section 3, step 7): one table, read everywhere.
 
 Each type is the same reflectance with a fixed Fresnel weight F between a diffuse lobe kd/pi cos and
 the normalised Phong lobe ks (N + 1)/(2 pi) max(r.l, 0)^N:

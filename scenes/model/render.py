@@ -1,4 +1,4 @@
-"""`Render`: what every renderer returns (docs/design.md section 6)."""
+"""`Render`: what every renderer returns (docs/contract.md section 6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The scene model: TOML file -> validated, frozen dataclasses (docs/design.md section 5).
+"""The scene model: TOML file -> validated, frozen dataclasses (docs/contract.md section 5).
 
 Everything is checked on load. Each bad value raises `SceneError` with a message of the form
 
@@ -218,7 +218,7 @@ class Scene:
 
     @cached_property
     def effects(self) -> frozenset[str]:
-        """The effects this scene needs (docs/design.md section 4), derived, never written by hand."""
+        """The effects this scene needs (docs/contract.md section 4), derived, never written by hand."""
         out = set()
         if any(o.material.has_diffuse for o in self.objects):
             out.add("diffuse")

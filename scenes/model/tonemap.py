@@ -9,7 +9,7 @@ applied per linear RGB channel (as real-time engines do), clamped to [0, 1] at L
 where L_d reaches exactly 1. `L_avg` is the adaptation luminance. It is *not* measured on
 each image: iblcheck takes the log-average luminance of the scene's environment
 (`adaptation_luminance`), the same for the real-time image and the reference, so metrics
-compare like with like (docs/design.md section 3, step 8).
+compare like with like (docs/contract.md section 3, step 8).
 
 The GLSL display pass (realtime/shaders/display.frag) implements the same formula and is
 tested against this module.

@@ -1,5 +1,5 @@
 """`compare` and `render` report the techniques, the unsimulated effects (with a warning line) and
-the unbiased PSNR (docs/design.md section 9)."""
+the unbiased PSNR (docs/contract.md section 9)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Metrics against values computed by hand and against scikit-image (docs/design.md section 7)."""
+"""Metrics against values computed by hand and against scikit-image (docs/contract.md section 7)."""
 
 from __future__ import annotations
 

@@ -163,7 +163,7 @@ def test_psnr_cap_is_at_an_mse_of_1e_minus_10(mse, capped):
 
 
 def test_common_mask_erodes_one_pixel_by_default_and_at_the_image_border():
-    """The default is docs/design.md's 1-pixel erosion (a 3 x 3 cross); the image border counts as uncovered, so a
+    """The default is docs/contract.md's 1-pixel erosion (a 3 x 3 cross); the image border counts as uncovered, so a
     mask covering the whole 6 x 6 image keeps its 4 x 4 inside; erode = 2 keeps 2 x 2."""
     full = np.ones((6, 6), bool)
     inside = np.zeros((6, 6), bool)

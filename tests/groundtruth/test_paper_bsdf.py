@@ -1,4 +1,4 @@
-"""The `iblcheck_paper` plugin: its values against docs/design.md section 3 written out here, and its
+"""The `iblcheck_paper` plugin: its values against docs/contract.md section 3 written out here, and its
 sampling against Mitsuba's own chi-square test (`mitsuba.chi2`)."""
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def _eval(mi, material, wi, wo):
 
 
 def _design_formula(material, wi, wo):
-    """f cos of docs/design.md section 3, written out independently of the plugin and reflectance.py."""
+    """f cos of docs/contract.md section 3, written out independently of the plugin and reflectance.py."""
     cos_o = wo[:, 2]
     if wi[2] <= 0:  # one-sided: a viewer behind the shading normal sees black
         return np.zeros((len(wo), 3))

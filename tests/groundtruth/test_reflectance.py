@@ -1,7 +1,7 @@
 """groundtruth.exact.reflectance (the paper's reflectance in numpy) against values worked out by hand.
 
 The quadrature normalises its kernels by their discrete sums, so a wrong lobe normalisation cancels out
-there: these checks hold the formulas themselves (docs/design.md section 3):
+there: these checks hold the formulas themselves (docs/contract.md section 3):
 lobe = (N + 1) / (2 pi) max(r.l, 0)^N, Schlick's F, the mirror direction 2 (n.v) n - v.
 """
 

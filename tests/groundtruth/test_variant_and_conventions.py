@@ -1,4 +1,4 @@
-"""Variant choice and the scene hand-over's conventions (docs/design.md section 2)."""
+"""Variant choice and the scene hand-over's conventions (docs/contract.md section 2)."""
 
 from __future__ import annotations
 

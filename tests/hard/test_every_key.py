@@ -50,7 +50,7 @@ def test_every_bad_value_is_refused_with_its_key(tmp_path, section, key, value):
     with pytest.raises(SceneError) as err:
         from_dict(tree, "every.toml", tmp_path)
     msg = str(err.value)
-    # the exact `section.key = value` of docs/design.md section 5, then what is allowed: a bare key name
+    # the exact `section.key = value` of docs/contract.md section 5, then what is allowed: a bare key name
     # (`scale`, `type`, `map`) or a message without its section would not match
     _, text = SCHEMA[section][key]
     assert msg == f"every.toml: {name} = {value!r}: must be {text}", msg

@@ -1,8 +1,8 @@
-"""The glossy lookup on the GPU reads the box chain at clamp(level(s) + offset(N) + b) (docs/design.md section 3,
+"""The glossy lookup on the GPU reads the box chain at clamp(level(s) + offset(N) + b) (docs/contract.md section 3,
 step 5).
 
 Expectation, independent of realtime/: the base level is the Mitsuba-convention lookup of every texel
-direction (scenes.environment.envmap / scenes.environment.cubemap, docs/design.md section 2), the chain is 2x2
+direction (scenes.environment.envmap / scenes.environment.cubemap, docs/contract.md section 2), the chain is 2x2
 box-filtered here in
 numpy, and each pixel's mirror direction (from the analytic sphere, not the mesh) is sampled trilinearly:
 bilinear within a level at the texel the direction hits (texel centres at (i + 0.5) / size), linear

@@ -1,6 +1,6 @@
 """Level selection and the glossy LOD (realtime.engine.levels) against values worked out by hand.
 
-The formulas (docs/design.md section 3, steps 2 and 5): level(s) = log2(base / s); "auto" takes s linear in
+The formulas (docs/contract.md section 3, steps 2 and 5): level(s) = log2(base / s); "auto" takes s linear in
 the object's distance between 64 at 2 and 8 at 16, snapped to a power of two in log2;
 lod = clamp(level(s) + offset(N) + b, 0, log2(base)) with offset 0 ("paper") or
 McGuire's max(0, log2(s sqrt 3) - 0.5 log2(N + 1)).

@@ -110,7 +110,7 @@ def test_convention_matches_scipy_without_condon_shortley_phase():
 def test_glsl_defines_contract():
     defs = dict(s.split(" ", 1) for s in glsl_defines(4))
     assert defs["SH_ORDER"] == "4" and defs["SH_COUNT"] == "25"
-    # bands 0-2: exactly the literals of sh_project.comp / docs/design.md section 3
+    # bands 0-2: exactly the literals of sh_project.comp / docs/contract.md section 3
     assert [defs[f"SH_C{i}"] for i in range(5)] == ["0.282095", "0.488603", "1.092548", "0.315392", "0.546274"]
     # bands 3-4: the normalisation N_lm times P_l^(m)'s leading factor, to float32 precision
     n = lambda l, m: math.sqrt((2 * l + 1) / (4 * math.pi) * math.factorial(l - m) / math.factorial(l + m))  # noqa: E731

@@ -1,4 +1,4 @@
-"""The technique interface (docs/design.md section 9): scene keys, refusals, composition."""
+"""The technique interface (docs/contract.md section 9): scene keys, refusals, composition."""
 
 from __future__ import annotations
 
@@ -146,7 +146,7 @@ def test_a_technique_that_reaches_one_lobe_names_the_other(spec, overrides, miss
 
 
 def test_only_the_scenes_effects_get_techniques():
-    # a diffuse technique chosen for a scene without diffuse is not run (docs/design.md section 4)
+    # a diffuse technique chosen for a scene without diffuse is not run (docs/contract.md section 4)
     s = scenes.load("builtin:sphere-phong").with_overrides({"realtime.diffuse": "irradiance_map"})
     assert technique.needed(s) == [("glossy", "box")]
     s = scenes.load("builtin:sphere-blend").with_overrides({"realtime.glossy": "prefiltered"})

@@ -1,4 +1,4 @@
-"""Cube faces follow the OpenGL table (docs/design.md section 2); solid angles are exact."""
+"""Cube faces follow the OpenGL table (docs/contract.md section 2); solid angles are exact."""
 
 from __future__ import annotations
 
@@ -65,7 +65,7 @@ def test_solid_angle_matches_numerical_integration():
         assert omega[j, i] == pytest.approx(numeric, rel=1e-5)
 
 
-# docs/design.md section 2, written out here: face -> (sc, tc) -> unnormalised direction
+# docs/contract.md section 2, written out here: face -> (sc, tc) -> unnormalised direction
 FACE_TABLE = [lambda sc, tc: (1, -tc, -sc), lambda sc, tc: (-1, -tc, sc), lambda sc, tc: (sc, 1, tc),
               lambda sc, tc: (sc, -1, -tc), lambda sc, tc: (sc, -tc, 1), lambda sc, tc: (-sc, -tc, -1)]
 

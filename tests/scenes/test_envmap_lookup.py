@@ -1,4 +1,4 @@
-"""`scenes.environment.envmap.lookup` reproduces Mitsuba's `envmap` emitter (docs/design.md section 2) to 1e-5."""
+"""`scenes.environment.envmap.lookup` reproduces Mitsuba's `envmap` emitter (docs/contract.md section 2) to 1e-5."""
 
 from __future__ import annotations
 

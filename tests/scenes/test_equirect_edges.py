@@ -1,4 +1,4 @@
-"""The equirect map's edges (docs/design.md section 2): the pole rows, and the solid angles of all pixels."""
+"""The equirect map's edges (docs/contract.md section 2): the pole rows, and the solid angles of all pixels."""
 
 from __future__ import annotations
 

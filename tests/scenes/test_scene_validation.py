@@ -1,4 +1,4 @@
-"""Every validation rule of the scene format (docs/design.md section 5) names the file and the key."""
+"""Every validation rule of the scene format (docs/contract.md section 5) names the file and the key."""
 
 from __future__ import annotations
 

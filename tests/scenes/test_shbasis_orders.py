@@ -1,4 +1,4 @@
-"""scenes.environment.shbasis.sh_basis: the orders it takes, against the constants of docs/design.md section 3 (eq.
+"""scenes.environment.shbasis.sh_basis: the orders it takes, against the constants of docs/contract.md section 3 (eq.
 8)."""
 
 from __future__ import annotations

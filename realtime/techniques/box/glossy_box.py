@@ -1,7 +1,7 @@
 """Glossy technique `box`: the paper's 2x2-box mip chain read at a LOD (`realtime.glossy = "box"`).
 
 L_g = ks textureLod(cube, r, lod) with r the mirror direction and lod = level(s) + offset(N) + bias
-(docs/design.md section 3, step 5). The LOD is computed once per object on the host
+(docs/contract.md section 3, step 5). The LOD is computed once per object on the host
 (`realtime.engine.levels.glossy_lod`, the only place the formula lives) and passed as a uniform.
 
 On a 2D parameterization (`realtime.parameterization`, realtime/engine/environment_maps.py) the same host

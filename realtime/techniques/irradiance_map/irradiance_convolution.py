@@ -5,7 +5,7 @@
 over every texel w of one level of the environment cube map (face size `source_size`), with the
 exact texel solid angles (scenes.environment.cubemap.texel_solid_angles, as the SH projection uses), for n =
 each texel direction of an output cube map of face size `size`. The shader then reads
-E = texture(irr, n).rgb and shades kd / pi E, like the paper's E(n) = n^T M n (docs/design.md section 3).
+E = texture(irr, n).rgb and shades kd / pi E, like the paper's E(n) = n^T M n (docs/contract.md section 3).
 
 By default the sum is normalised by its discrete kernel mass,
 

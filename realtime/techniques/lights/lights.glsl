@@ -1,7 +1,7 @@
 #if defined(DIFFUSE_LIGHTS) || defined(GLOSSY_LIGHTS)
 // The light array (realtime/techniques/lights/lights.py): N distant lights, light i arriving from direction l_i (world,
 // unit) with RGB power P_i (W m^-2: the irradiance it gives a surface facing it), through the paper's
-// reflectance (docs/design.md section 3), only above the surface (n . l > 0), each times its visibility:
+// reflectance (docs/contract.md section 3), only above the surface (n . l > 0), each times its visibility:
 //   diffuse:  E(n)  = sum_i P_i max(n . l_i, 0) V_i                       (then L_d = kd / pi E)
 //   glossy:   L_g   = sum_i P_i (N + 1) / (2 pi) max(r . l_i, 0)^N V_i    (n . l_i > 0)
 // V_i is light_visibility(i) of shadow_maps.glsl, or 1 without shadows.

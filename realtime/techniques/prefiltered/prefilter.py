@@ -3,7 +3,7 @@
     G(r) = int L(l) (N + 1) / (2 pi) max(r.l, 0)^N dl          [radiance: the lobe integrates to 1]
 
 for r = each texel direction of levels first_level .. log2(base) of a cube map of the source's
-size. It is the paper's glossy lobe about the mirror direction (docs/design.md section 3); unlike GGX
+size. It is the paper's glossy lobe about the mirror direction (docs/contract.md section 3); unlike GGX
 no n = v approximation is needed; the horizon cut is ignored, as in the paper's box chain. The
 shader reads it like the box chain, textureLod(prefiltered, r, lod).
 

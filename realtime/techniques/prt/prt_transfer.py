@@ -1,5 +1,5 @@
 """Precomputed radiance transfer for diffuse surfaces: the pure numpy + Embree half (no OpenGL)
-(docs/design.md section 9, `diffuse = "prt"`, `occlusion = "prt"`, `interreflection = "prt"`).
+(docs/contract.md section 9, `diffuse = "prt"`, `occlusion = "prt"`, `interreflection = "prt"`).
 
 Sloan, Kautz & Snyder 2002, "Precomputed radiance transfer for real-time rendering in dynamic,
 low-frequency lighting environments" (SIGGRAPH 2002), section 5 (diffuse transfer): per vertex a

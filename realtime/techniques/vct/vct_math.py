@@ -1,4 +1,4 @@
-"""The numpy half of voxel cone tracing (realtime/techniques/vct/vct.py; docs/design.md section 9): what a test
+"""The numpy half of voxel cone tracing (realtime/techniques/vct/vct.py; docs/contract.md section 9): what a test
 or the GPU side needs without GL.
 
 - `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles, cosine weights that
