@@ -2,10 +2,9 @@
 "hemisphere"`) installed into a scratch folder and run through the CLI in a subprocess
 (PYTHONPATH = that folder and the repository), like a user's `pip install` would.
 
-The installation is what `pip install --target` leaves behind, made without a wheel builder (the
-virtualenv's setuptools has no `bdist_wheel` and the tests run offline): setuptools' `egg_info` writes
-the package's metadata (its entry point in `iblcheck.techniques` included) into the folder, and the
-package folder is copied beside it. importlib.metadata finds both on sys.path.
+The installation is `pip install --target` of a scratch copy, offline (no index, no build isolation:
+the virtual environment's setuptools and wheel build it), so what the example's pyproject.toml ships
+(its GLSL as package data, its entry point in `iblcheck.techniques`) is what the tests load.
 
 Broken plugins (an import error, a wrong declaration, GLSL that does not compile) must give one line
 naming the package, exit 2 or 3, no traceback, and leave the builtins working in the same environment.
@@ -32,11 +31,13 @@ SMALL = ["--set", "camera.width=48", "--set", "camera.height=48", "--set", "real
 
 
 def install(src: Path, target: Path) -> Path:
-    """Install the plugin at `src` into `target` (see the module docstring); returns `target`."""
-    target.mkdir(parents=True, exist_ok=True)
-    subprocess.run([sys.executable, "-c", "from setuptools import setup; setup()", "egg_info", "--egg-base",
-                    str(target)], cwd=src, check=True, capture_output=True)
-    shutil.copytree(src / PACKAGE, target / PACKAGE, ignore=shutil.ignore_patterns("__pycache__"))
+    """`pip install --target` of the plugin at `src` (a scratch copy: pip builds in the source folder),
+    offline: no index and no build isolation, the virtual environment's setuptools and wheel build it.
+    Returns `target`."""
+    build = target.parent / f"{target.name}-src"
+    shutil.copytree(src, build, ignore=shutil.ignore_patterns("__pycache__", "*.egg-info", "build"))
+    subprocess.run([sys.executable, "-m", "pip", "install", "--quiet", "--no-deps", "--no-index",
+                    "--no-build-isolation", "--target", str(target), str(build)], check=True, capture_output=True)
     return target
 
 
