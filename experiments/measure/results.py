@@ -41,6 +41,7 @@ from typing import Any
 
 from experiments.measure import fields as fields_
 from scenes import InputError
+from scenes.model import technique_registry
 from scenes.storage.files import write_bytes
 
 RESULTS = "results.jsonl"
@@ -114,29 +115,8 @@ class ResultRow:
         """A readable name of the techniques the scene's effects use, with their main parameter:
         'SH order 2', 'irradiance map 32 from 32', 'box bias 1 McGuire', 'prefiltered 64 spl', joined
         by ', ' for a scene with both effects (tables and report labels)."""
-        t, fx, parts = self.techniques, set(self.effects), []
-        if "diffuse" in fx:
-            d = t.get("diffuse")
-            if d == "sh":
-                parts.append(f"SH order {t.get('sh_order')}" + ("" if t.get("sh_window") == "none"
-                                                                 else f" {t.get('sh_window')} window"))
-            elif d == "irradiance_map":
-                m = t.get("irradiance_map", {})
-                parts.append(f"irradiance map {m.get('size')} from {m.get('source_size')}")
-            else:
-                parts.append(str(d))
-        if "glossy" in fx:
-            g = t.get("glossy")
-            if g == "box":
-                parts.append(f"box bias {t.get('lod_bias'):g}" + (" McGuire" if t.get("lod_mapping") == "mcguire"
-                                                                 else ""))
-            elif g == "prefiltered":
-                p = t.get("prefiltered", {})
-                parts.append(f"prefiltered {p.get('samples')} spl" + (f" FIS bias {p.get('bias'):g}" if p.get("bias")
-                                                                         else ""))
-            else:
-                parts.append(str(g))
-        return ", ".join(parts)
+        effects = [e for e in ("diffuse", "glossy") if e in self.effects]
+        return ", ".join(technique_registry.row_label(e, self.techniques) for e in effects)
 
     def to_dict(self) -> dict:
         return asdict(self)

@@ -187,6 +187,9 @@ class Declaration:
     validate: Callable | None = None
     validate_objects: Callable | None = None
     describe: Callable | None = None
+    #: row_label(techniques) -> str: the technique with its main parameter, from a row's `techniques`
+    #: dict (describe's output), for tables and plots; without it, its name
+    row_label: Callable | None = None
     covers: Callable | None = None
     effective_settings: Callable | None = None
     # filled in by the registry
@@ -397,6 +400,17 @@ def declarations() -> list[Declaration]:
 def broken() -> list[Broken]:
     """The plugin entry points that could not be registered, with their errors."""
     return list(registry().broken)
+
+
+def row_label(effect: str, techniques: Mapping[str, Any]) -> str:
+    """How tables name the technique a row's `techniques` (describe's dict) chose for `effect`: its
+    declaration's `row_label` hook, else its name (a technique no longer registered: its name too)."""
+    name = techniques.get(effect)
+    try:
+        d = lookup(effect, name)
+    except KeyError:
+        return str(name)
+    return d.call("row_label", techniques) if d.row_label is not None else str(name)
 
 
 def lookup(effect: str, name: str) -> Declaration:

@@ -204,3 +204,19 @@ def test_a_plugins_flat_key_is_read_only_where_it_is_chosen(plugins):
 
     plugins(FakeEntryPoint("glow", "glow-plugin", dataclasses.replace(GLOW, flat=Clash)))
     assert "realtime.sh_order is already declared by 'iblcheck'" in str(reg.broken()[0].error)
+
+
+def test_row_labels_come_from_the_declarations(plugins):
+    """Tables name a row's techniques through each declaration's row_label: the builtins' as written by
+    hand here, a plugin's through its own hook, a technique without one (or no longer registered) by name."""
+    assert reg.row_label("diffuse", {"diffuse": "sh", "sh_order": 4, "sh_window": "hanning"}) == \
+        "SH order 4 hanning window"
+    assert reg.row_label("glossy", {"glossy": "box", "lod_bias": 1.0, "lod_mapping": "mcguire"}) == \
+        "box bias 1 McGuire"
+    assert reg.row_label("glossy", {"glossy": "prefiltered", "prefiltered": {"samples": 64, "bias": 1.0}}) == \
+        "prefiltered 64 spl FIS bias 1"
+    assert reg.row_label("diffuse", {"diffuse": "lights"}) == "lights"
+    assert reg.row_label("diffuse", {"diffuse": "gone"}) == "gone"
+    plugins(FakeEntryPoint("glow", "glow-plugin",
+                           dataclasses.replace(GLOW, row_label=lambda t: f"glow x{t['glow']['strength']:g}")))
+    assert reg.row_label("diffuse", {"diffuse": "glow", "glow": {"strength": 2.0}}) == "glow x2"

@@ -27,6 +27,11 @@ def describe(rt) -> dict:
     return {"lod_bias": rt.lod_bias, "lod_mapping": rt.lod_mapping}
 
 
+
+def row_label(t) -> str:
+    """'box bias 1', 'box bias 0 McGuire'."""
+    return f"box bias {t.get('lod_bias'):g}" + (" McGuire" if t.get("lod_mapping") == "mcguire" else "")
+
 DECLARATIONS = (
     Declaration(
         effect="glossy", name="box", rank=10, simulates=frozenset({"glossy"}),
@@ -36,6 +41,6 @@ DECLARATIONS = (
         reads=("realtime.lod_bias", "realtime.lod_mapping"),
         axes={"realtime.lod_bias": (-1.0, 0.0, 1.0, 2.0), "realtime.lod_mapping": ("paper", "mcguire")},
         package=__package__, fragment_glsl=("glossy_box.glsl",),
-        validate=validate, describe=describe,
+        validate=validate, describe=describe, row_label=row_label,
     ),
 )

@@ -30,6 +30,12 @@ def describe(rt) -> dict:
     return {"irradiance_map": asdict(rt.irradiance_map)}
 
 
+
+def row_label(t) -> str:
+    """'irradiance map 32 from 32' (its face size, from the source level's)."""
+    m = t.get("irradiance_map", {})
+    return f"irradiance map {m.get('size')} from {m.get('source_size')}"
+
 DECLARATIONS = (
     Declaration(
         effect="diffuse", name="irradiance_map", rank=20, simulates=frozenset({"diffuse"}),
@@ -39,6 +45,6 @@ DECLARATIONS = (
         reads=("realtime.irradiance_map.",),
         axes={"realtime.irradiance_map.size": (16, 32, 64), "realtime.irradiance_map.source_size": (16, 32)},
         package=__package__, fragment_glsl=("diffuse_irradiance_map.glsl",),
-        validate=validate, describe=describe,
+        validate=validate, describe=describe, row_label=row_label,
     ),
 )

@@ -24,6 +24,12 @@ def describe(rt) -> dict:
     return {"prefiltered": asdict(rt.prefiltered)}
 
 
+
+def row_label(t) -> str:
+    """'prefiltered 64 spl', 'prefiltered 64 spl FIS bias 1'."""
+    p = t.get("prefiltered", {})
+    return f"prefiltered {p.get('samples')} spl" + (f" FIS bias {p.get('bias'):g}" if p.get("bias") else "")
+
 DECLARATIONS = (
     Declaration(
         effect="glossy", name="prefiltered", rank=20, simulates=frozenset({"glossy"}),
@@ -33,6 +39,6 @@ DECLARATIONS = (
         reads=("realtime.prefiltered.",),
         axes={"realtime.prefiltered.samples": (16, 64, 256, 1024)},
         package=__package__, fragment_glsl=("glossy_prefiltered.glsl",),
-        validate=validate, describe=describe,
+        validate=validate, describe=describe, row_label=row_label,
     ),
 )

@@ -29,6 +29,12 @@ def describe(rt) -> dict:
     return {"sh_order": rt.sh_order, "sh_window": rt.sh_window}
 
 
+
+def row_label(t) -> str:
+    """'SH order 2', 'SH order 4 hanning window'."""
+    window = t.get("sh_window")
+    return f"SH order {t.get('sh_order')}" + ("" if window == "none" else f" {window} window")
+
 DECLARATIONS = (
     Declaration(
         effect="diffuse", name="sh", rank=10, simulates=frozenset({"diffuse"}),
@@ -38,6 +44,6 @@ DECLARATIONS = (
         reads=("realtime.sh_order", "realtime.sh_window"),
         axes={"realtime.sh_order": (2, 3, 4), "realtime.sh_window": ("none", "auto")},
         package=__package__, fragment_glsl=("diffuse_sh9.glsl", "diffuse_sh_n.glsl"),
-        validate=validate, describe=describe,
+        validate=validate, describe=describe, row_label=row_label,
     ),
 )
