@@ -24,6 +24,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.environment_maps import MapShProjector
 from realtime.engine.sh_orders import ShProjector
 from realtime.engine.technique import NO_CUBE, Frame, Technique
@@ -55,7 +56,9 @@ class PrtDiffuse(Technique):
         transfers, self.info = cached_transfer(transfer_objects(frame.scene), s.order, s.rays, s.bounces, s.shadowed,
                                                progress=True)
         for i, t in enumerate(transfers):
-            self.buffers[i] = frame.ctx.buffer(np.ascontiguousarray(t, dtype="f4").tobytes())
+            data = np.ascontiguousarray(t, dtype="f4")
+            limits.check_storage(frame.ctx, data.nbytes, "objects", f"object {i}'s per-vertex transfer")
+            self.buffers[i] = frame.ctx.buffer(data.tobytes())
         if frame.scene.realtime.parameterization == "cube":
             self.projector = ShProjector(frame.ctx, self.order)
         else:

@@ -302,6 +302,7 @@ class VoxelScene:
         data = np.zeros((n, 2, 4), "f4")
         data[:, 0, :3] = points
         data[:, 1, :3] = normals
+        limits.check_storage(self.ctx, data.nbytes, "probe points", "the probe's points")
         src = self.ctx.buffer(data.tobytes())
         out = self.ctx.buffer(reserve=n * 16)
         self.bind_trace(p)
