@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+import scenes
 from tests.helpers import sphere_scene_text
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -48,3 +49,10 @@ def write_env(path: Path, rgb: np.ndarray) -> Path:
     else:
         imageio.write_hdr(path, rgb.astype(np.float32))
     return path
+
+
+def small_scene(name: str, **overrides):
+    """Scene `name` (a builtin or a file) at 24 x 24, one untimed frame, 8 spp, with `overrides`."""
+    base = {"camera.width": 24, "camera.height": 24, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,
+            "reference.spp": 8}
+    return scenes.load(name).with_overrides({**base, **overrides})

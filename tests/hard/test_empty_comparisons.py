@@ -20,6 +20,7 @@ import scenes
 from experiments.measure import comparison, metrics, pair
 from experiments.runs import gate
 from scenes.model.render import Render
+from tests.hard.common import small_scene
 
 SCENE = scenes.load("builtin:sphere-diffuse").with_overrides({"camera.width": 16, "camera.height": 16})
 
@@ -148,27 +149,21 @@ def test_thresholds_the_reference_can_resolve_are_ordinary_checks():
 # --------------------------------------------------------------------------- end to end
 
 
-def _tiny(name: str, **ov):
-    base = {"camera.width": 24, "camera.height": 24, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,
-            "reference.spp": 8}
-    return scenes.load(name).with_overrides({**base, **ov})
-
-
 @pytest.mark.gl
 @pytest.mark.mitsuba
 def test_camera_inside_a_sphere_fails_the_gate_unless_allowed(tmp_path, monkeypatch):
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path))
     inside = {"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0}
-    scene = _tiny("builtin:sphere-blend", **inside)
+    scene = small_scene("builtin:sphere-blend", **inside)
     with pytest.warns(pair.EmptyComparison, match="no lit pixel"):
         (r,) = gate.compare_all([(scene, {"min_psnr": 20.0})], noise=False)
     assert not r.passed and r.metrics["psnr"] is None and "empty comparison" in r.failures[0]
-    allowed = _tiny("builtin:sphere-blend", **inside, **{"gate.allow_empty": True})
+    allowed = small_scene("builtin:sphere-blend", **inside, **{"gate.allow_empty": True})
     with pytest.warns(pair.EmptyComparison):
         (r,) = gate.compare_all([(allowed, {"min_psnr": 20.0})], noise=False)
     assert r.passed and any("allow_empty" in w for w in r.warnings)
     # negative control: the camera outside, the same sphere: measured and passing
-    (r,) = gate.compare_all([(_tiny("builtin:sphere-blend"), {"min_psnr": 5.0})], noise=False)
+    (r,) = gate.compare_all([(small_scene("builtin:sphere-blend"), {"min_psnr": 5.0})], noise=False)
     assert r.passed and r.metrics["psnr"] is not None
 
 

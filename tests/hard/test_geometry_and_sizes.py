@@ -7,13 +7,12 @@ import pytest
 
 import groundtruth
 import realtime
-import scenes
 from experiments.measure import metrics
 from groundtruth.exact import quadrature, reflectance
 from scenes import MeshError
 from scenes.environment import envmap
 from scenes.geometry import meshes
-from tests.hard.common import run_cli, write_tiny
+from tests.hard.common import run_cli, small_scene, write_tiny
 from tests.helpers import unit_sphere_hits
 
 OBJ_QUAD = """v -0.5 -0.5 0
@@ -57,12 +56,6 @@ def test_all_degenerate_mesh_is_refused(tmp_path):
         meshes.load_file(tmp_path / "d.obj")
 
 
-def small(name, **ov):
-    base = {"camera.width": 24, "camera.height": 24, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,
-            "reference.spp": 8}
-    return scenes.load(name).with_overrides({**base, **ov})
-
-
 @pytest.mark.gl
 @pytest.mark.mitsuba
 def test_camera_inside_the_object(tmp_path, monkeypatch):
@@ -72,7 +65,7 @@ def test_camera_inside_the_object(tmp_path, monkeypatch):
     image, which ignores occlusion, follows the back-face rule of scenes/model/materials.py: only
     required finite and non-negative here."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
-    scene = small("builtin:sphere-blend", **{"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0})
+    scene = small_scene("builtin:sphere-blend", **{"camera.origin": [0.0, 0.0, 0.3], "objects.0.scale": 2.0})
     ref, quad, rt = groundtruth.render(scene), quadrature.render(scene, subpixels=1), realtime.render(scene)
     assert ref.mask.all() and quad.mask.all() and rt.mask.all()
     assert (ref.rgb == 0).all() and (quad.rgb == 0).all()
@@ -110,7 +103,8 @@ def numpy_diffuse(scene, level: int, normals: np.ndarray) -> np.ndarray:
 @pytest.mark.parametrize(("face", "level"), [(1, 8), (2, 7), (4, 6)])  # level = log2(256 / face)
 def test_tiny_cube_faces(face, level):
     """SH9 of 1 x 1 ... 4 x 4 faces: the image is kd / pi E(n) of that level's numpy SH9, within 1 %."""
-    scene = small("builtin:sphere-diffuse", **{"realtime.face_size": face, "camera.width": 32, "camera.height": 32})
+    scene = small_scene("builtin:sphere-diffuse",
+                        **{"realtime.face_size": face, "camera.width": 32, "camera.height": 32})
     r = realtime.render(scene)
     n, _, interior = unit_sphere_hits(scene.camera)
     sel = interior & r.mask
@@ -122,7 +116,7 @@ def test_tiny_cube_faces(face, level):
 def test_base_1024():
     """Face 1024 of base 1024 is level 0: a mirror (N = 1e6, bias 0) shows the map at the reflected direction,
     within the 2 % median that cube-map resampling allows (a wrong level blurs the probe by far more)."""
-    scene = small("builtin:sphere-phong", **{"realtime.base_size": 1024, "realtime.face_size": 1024,
+    scene = small_scene("builtin:sphere-phong", **{"realtime.base_size": 1024, "realtime.face_size": 1024,
                                              "objects.0.material.exponent": 1e6, "camera.width": 32,
                                              "camera.height": 32})
     r = realtime.render(scene)
@@ -137,7 +131,7 @@ def test_base_1024():
 @pytest.mark.parametrize(("w", "h"), [(1, 1), (4096, 16)])
 def test_extreme_image_sizes(w, h):
     """One pixel and a 256:1 strip: every pixel well inside the sphere is kd / pi E(n) (level 2), within 1 %."""
-    scene = small("builtin:sphere-diffuse", **{"camera.width": w, "camera.height": h})
+    scene = small_scene("builtin:sphere-diffuse", **{"camera.width": w, "camera.height": h})
     r = realtime.render(scene)
     assert r.rgb.shape == (h, w, 3) and np.isfinite(r.rgb).all()
     # the one pixel's centre ray meets the sphere's centre (n = +Z), far from any silhouette
@@ -150,7 +144,7 @@ def test_extreme_image_sizes(w, h):
 @pytest.mark.mitsuba
 def test_one_pixel_reference(tmp_path, monkeypatch):
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
-    r = groundtruth.render(small("builtin:sphere-diffuse", **{"camera.width": 1, "camera.height": 1}))
+    r = groundtruth.render(small_scene("builtin:sphere-diffuse", **{"camera.width": 1, "camera.height": 1}))
     assert r.rgb.shape == (1, 1, 3) and r.mask.all() and np.isfinite(r.rgb).all()
 
 
@@ -169,7 +163,7 @@ def test_extreme_exponents_in_all_three_renderers(tmp_path, monkeypatch, exponen
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
     images = {}
     for mapping, bias in (("paper", MCGUIRE_AS_PAPER_BIAS[exponent]), ("mcguire", 0.0)):
-        scene = small("builtin:sphere-phong", **{"objects.0.material.exponent": exponent,
+        scene = small_scene("builtin:sphere-phong", **{"objects.0.material.exponent": exponent,
                                                  "realtime.lod_mapping": mapping, "realtime.lod_bias": bias})
         images[mapping] = realtime.render(scene).rgb
         assert np.isfinite(images[mapping]).all()
@@ -182,7 +176,7 @@ def test_extreme_exponents_in_all_three_renderers(tmp_path, monkeypatch, exponen
 def test_lod_clamps_to_the_chain():
     """A bias far beyond the chain gives exactly the coarsest level's image, far below the finest's."""
     base = {"realtime.face_size": 64, "realtime.base_size": 64}
-    render = {b: realtime.render(small("builtin:sphere-phong", **base, **{"realtime.lod_bias": b}))
+    render = {b: realtime.render(small_scene("builtin:sphere-phong", **base, **{"realtime.lod_bias": b}))
               for b in (6.0, 32.0, 0.0, -32.0)}
     coarsest, beyond, finest, below = (render[b].rgb for b in (6.0, 32.0, 0.0, -32.0))
     np.testing.assert_array_equal(beyond, coarsest)
@@ -211,7 +205,7 @@ def test_silhouette_normals_of_a_coarse_sphere():
     from groundtruth.exact import raycast
 
     kd, ks, f0 = 0.3, 0.9, 0.04
-    scene = small("builtin:sphere-blend", **{
+    scene = small_scene("builtin:sphere-blend", **{
         "objects.0.resolution": 6, "camera.width": 64, "camera.height": 64, "environment.map": "builtin:constant",
         "objects.0.material.kd": [kd] * 3, "objects.0.material.ks": [ks] * 3, "objects.0.material.f0": f0})
     r = realtime.render(scene)
