@@ -6,6 +6,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 import pytest
+from numpy.polynomial import legendre
 
 from groundtruth.exact.reflectance import phong_lobe
 from realtime.engine.context import get_context
@@ -49,6 +50,30 @@ def test_sample_set_follows_the_lobe(exponent):
     np.testing.assert_allclose(length, 1.0, atol=1e-12)
     np.testing.assert_allclose(one_minus_cos.mean(), 1.0 / (exponent + 2.0), rtol=1e-3)
     assert np.all((one_minus_cos > 0) & (one_minus_cos <= 1.0)) and np.all(np.isfinite(s))
+
+
+@pytest.mark.parametrize("exponent", [0.0, 1.0, 10.0, 100.0])
+@pytest.mark.parametrize("base_size", [16, 256])
+def test_sample_levels_are_the_footprint_of_the_normalised_lobe(exponent, base_size):
+    """Each sample's FIS level is 0.5 log2(Omega_s / Omega_p) with Omega_s = 1 / (samples pdf) and
+    Omega_p = 4 pi / (6 base^2) a base texel's solid angle (Krivanek & Colbert 2008); pdf = cos^N a / Z
+    with the lobe's normalisation Z = int cos^N dw = 2 pi int_0^1 mu^N dmu found here by Gauss-Legendre
+    quadrature (exact for these integer N), not from the (N + 1) / (2 pi) formula. A wrong normalisation
+    ((N + 2) instead of (N + 1), no 2 pi), a texel solid angle without the 6 faces or a level without its
+    half shift the levels by 0.1 or more at N = 0 (negative control below)."""
+    samples = 64
+    s = phong_samples(exponent, samples, base_size)
+    x, w = legendre.leggauss(64)
+    mu = 0.5 * (x + 1.0)
+    z = 2.0 * np.pi * np.sum(0.5 * w * mu**exponent)
+    cos_a = 1.0 - s[:, 2]
+    pdf = cos_a**exponent / z
+    omega_p = 4.0 * np.pi / (6.0 * base_size**2)
+    expected = 0.5 * np.log2(1.0 / (samples * pdf) / omega_p)
+    np.testing.assert_allclose(s[:, 3], expected, rtol=0, atol=1e-9)
+    # negative control: the pdf normalised as (N + 2) / (2 pi) moves every level by 0.5 log2((N + 2) / (N + 1))
+    shift = 0.5 * np.log2((exponent + 2.0) / (exponent + 1.0))
+    assert shift > 1e-3 and np.abs(s[:, 3] - (expected - shift)).min() > 1e3 * 1e-9
 
 
 def test_numpy_reference_is_the_normalised_lobe_sum():

@@ -93,3 +93,37 @@ def test_shadows_darken_and_bounces_brighten_the_plane_under_the_sphere():
     assert (lum[2] <= lum[0] * 1.02).all()
     assert technique.unsimulated_effects(small("builtin:sphere-on-plane", **base, **{
         "realtime.occlusion": "prt", "realtime.interreflection": "prt", "realtime.prt.bounces": 1})) == []
+
+
+SPHERE_KD, PLANE_KD = (0.9, 0.5, 0.2), (0.4, 0.6, 0.8)
+
+
+def test_the_bounce_in_the_image_is_tinted_by_both_albedos_per_channel():
+    """Per pixel and channel, what one bounce adds to the image (bounced minus shadowed render, the same
+    rays) is a channel-free quantity times kd_sphere,c x kd_plane,c: under a white constant environment
+    the shadowed transfer is grey; the plane's rays only meet the sphere (gathered through kd_sphere) and
+    the sphere's only the plane (through kd_plane); the pixel multiplies by its own kd. The expectation is
+    the product of the scene's albedos; with these albedos the transfer's channels read in another order
+    (in the upload or the vertex shader), or one channel read for all, gives another tint on the sphere
+    or on the plane."""
+    base = {"camera.width": 48, "camera.height": 48, "objects.0.resolution": 24, "objects.1.resolution": 16,
+            "environment.map": "builtin:constant", "realtime.diffuse": "prt", "realtime.prt.order": 2,
+            "realtime.occlusion": "prt", "realtime.prt.rays": 64,
+            "objects.0.material.kd": list(SPHERE_KD), "objects.1.material.kd": list(PLANE_KD)}
+    with pytest.warns(technique.UnsimulatedEffectWarning):
+        shadowed = realtime.render(small("builtin:sphere-on-plane", **base))
+    bounced = realtime.render(small("builtin:sphere-on-plane", **base, **{"realtime.interreflection": "prt",
+                                                                          "realtime.prt.bounces": 1}))
+    m = shadowed.mask & bounced.mask
+    added = (bounced.rgb[m] - shadowed.rgb[m]).astype(np.float64)  # (P, 3)
+    tint = np.multiply(SPHERE_KD, PLANE_KD)
+    # float32 radiance of up to kd_max E / pi ~ 1 and its interpolation: 1e-5 absolute on the channel-free part
+    strong = added[:, 0] / tint[0] > 2e-3
+    assert strong.sum() > 50  # the contact region of the plane and the sphere's underside
+    grey = added[strong] / tint
+    np.testing.assert_allclose(grey[:, 1], grey[:, 0], rtol=2e-3, atol=1e-5)
+    np.testing.assert_allclose(grey[:, 2], grey[:, 0], rtol=2e-3, atol=1e-5)
+    # negative control: tinted by one albedo only (the transfer's channels mixed up) is far off
+    for wrong in (np.asarray(SPHERE_KD), np.asarray(PLANE_KD), tint[::-1]):
+        other = added[strong] / wrong
+        assert np.abs(other[:, 2] / other[:, 0] - 1).max() > 0.1

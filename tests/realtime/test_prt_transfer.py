@@ -209,6 +209,62 @@ def test_one_bounce_gathers_the_interpolated_transfer_of_front_faces(facing_down
         assert (np.abs(gathered[v] - expected) < 4 * sigma + 1e-6).all()
 
 
+# -------------------------------------------------------------------------------- 3c. colour of the bounces
+
+OCCLUDER_KD = (0.9, 0.5, 0.2)  # the three channels distinct, so a swap or a shared channel shows
+GROUND_KD = (0.3, 0.6, 0.8)  # neither proportional to the occluder's nor grey: products differ from both
+
+
+def ball_over_ground() -> tuple[TransferObject, TransferObject, np.ndarray, np.ndarray]:
+    """A sphere (radius 0.5) just above a ground square (half size 1.5, facing +y); (sphere, ground, the
+    albedo each vertex's first bounce gathers: the other object's, the albedo of its second bounce: both)."""
+    m = trimesh.creation.icosphere(subdivisions=2, radius=0.5)
+    m.apply_translation((0.0, 0.55, 0.0))
+    ball = mesh_object(m, kd=OCCLUDER_KD)
+    ground = quad_grid((-1.5, 0, -1.5), (0, 0, 3.0), (3.0, 0, 0), 9, (0, 1, 0), kd=GROUND_KD)
+    first = np.concatenate([np.tile(GROUND_KD, (len(ball.positions), 1)),
+                            np.tile(OCCLUDER_KD, (len(ground.positions), 1))])
+    second = np.tile(np.multiply(OCCLUDER_KD, GROUND_KD), (len(ball.positions) + len(ground.positions), 1))
+    return ball, ground, first, second
+
+
+@pytest.fixture(scope="module")
+def coloured_bounces() -> list[np.ndarray]:
+    ball, ground = ball_over_ground()[:2]
+    return [np.concatenate(transfer([ball, ground], 2, 64, b, True, seed=9)).astype(np.float64) for b in (0, 1, 2)]
+
+
+def test_shadowed_transfer_is_the_same_in_every_channel(coloured_bounces):
+    """Visibility does not depend on colour: without bounces the three channels of T are equal (exactly:
+    one estimate, copied), whatever the objects' albedos."""
+    t0 = coloured_bounces[0]
+    assert np.array_equal(t0[..., 1], t0[..., 0]) and np.array_equal(t0[..., 2], t0[..., 0])
+
+
+@pytest.mark.parametrize("bounce", [1, 2])
+def test_each_bounce_is_tinted_by_the_albedos_it_gathered_through(coloured_bounces, bounce):
+    """A sphere over a plane: the plane's rays can only hit the sphere and the sphere's only the plane
+    (each is convex or flat), so the b-th bounce term T^b = T(b) - T(b - 1) of a vertex is a channel-free
+    quantity times the product of the albedos along its path: channel c of T^1 scales with the OTHER
+    object's kd_c, channel c of T^2 with kd_sphere,c x kd_plane,c, for every SH coefficient (the
+    gathering is linear and the shadowed transfer is grey). Ratio test across channels, independent of
+    the geometry; a swapped, shared or receiver's albedo, or one bounce too many or too few, breaks it."""
+    ball, ground, first, second = ball_over_ground()
+    tint = first if bounce == 1 else second
+    term = coloured_bounces[bounce] - coloured_bounces[bounce - 1]  # (V, 9, 3)
+    grey = term / tint[:, None, :]  # the channel-free quantity, three times
+    # float32 storage of T(b) and T(b - 1): a few ulps of the whole transfer
+    atol = 4 * np.finfo(np.float32).eps * np.abs(coloured_bounces[bounce]).max()
+    for c in (1, 2):
+        np.testing.assert_allclose(grey[..., c], grey[..., 0], rtol=0, atol=atol / tint.min())
+    # negative control: the bounce is well above the tolerance, and the same term tinted the other way
+    # round (red and blue swapped) would be told apart
+    big = np.abs(term[:, 0, 0]) > 100 * atol
+    assert big.sum() > 20
+    swapped = term[..., ::-1] / tint[:, None, :]
+    assert np.abs(swapped[big, 0, 0] - swapped[big, 0, 1]).min() > 10 * atol / tint.min()
+
+
 # -------------------------------------------------------------------------------- 4. integrating sphere
 
 RHO = 0.8
