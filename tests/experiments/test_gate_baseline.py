@@ -308,6 +308,18 @@ def test_unchanged_settings_pass(baseline, tmp_path, capsys):
 
 @pytest.mark.gl
 @pytest.mark.mitsuba
+def test_unchanged_settings_pass_at_tolerances_of_zero(baseline, capsys):
+    """The same scene, settings and cached reference give the baseline's metrics exactly (every delta 0),
+    and a worsening equal to the tolerance passes: so tolerances of 0 pass (docs/gate.md)."""
+    code = cli.main(["gate", SCENE, "--baseline", str(baseline), "--tolerance-db", "0", "--tolerance-ssim", "0",
+                     "--tolerance-flip", "0", *sets("realtime.lod_bias=3")])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "1 passed, 0 failed" in out
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
 def test_a_worsened_setting_fails_with_baseline_new_and_delta(baseline, tmp_path, capsys):
     junit, md = tmp_path / "gate.xml", tmp_path / "gate.md"
     code = cli.main(["gate", SCENE, "--baseline", str(baseline), "--junit", str(junit), "--markdown", str(md),
