@@ -127,3 +127,38 @@ def test_real_ladder_follows_the_monte_carlo_law(monkeypatch, tmp_path):
     seconds, how = convergence.equal_quality_s(rungs, rungs[1].psnr_db)
     assert how == "interpolated" and seconds == pytest.approx(convergence.time_model(rungs).per_spp_s * 16)
     assert [r.psnr_db for r in convergence.curve(scene, spps=[4, 16, 64])] == [r.psnr_db for r in rungs]  # cached
+
+
+# A curve off the Monte Carlo law, by hand: 20, 30, 35 dB at 10, 100, 1000 spp (10 dB per decade, then 5),
+# 0.01 s per spp. Between rungs the spp is interpolated linearly in (log10 spp, dB); outside them the law
+# (10 dB per decade) goes on from the nearest rung, whatever the curve's own slope there.
+HAND = [Rung(spp=10, seconds=0.1, psnr_db=20.0, pixels=100), Rung(spp=100, seconds=1.0, psnr_db=30.0, pixels=100),
+        Rung(spp=1000, seconds=10.0, psnr_db=35.0, pixels=100)]
+
+
+@pytest.mark.parametrize(("db", "seconds", "how"), [
+    (20.0, 0.1, "interpolated"),          # exactly the first rung: reached there, not extrapolated below it
+    (35.0, 10.0, "interpolated"),         # exactly the last rung: reached there, not extrapolated past it
+    (30.0, 1.0, "interpolated"),          # a rung
+    (25.0, 0.01 * 10**1.5, "interpolated"),   # half-way in dB from 10 to 100 spp: 10^1.5 spp (not 55)
+    (32.5, 0.01 * 10**2.5, "interpolated"),   # half-way from 100 to 1000: 10^2.5 spp
+    (45.0, 0.01 * 10**4, "extrapolated"),     # 10 dB past 35 at 10 dB per decade: 10^4 spp (not the curve's 10^5)
+    (10.0, 0.01 * 10**0, "extrapolated_below"),   # 10 dB below 20: 1 spp
+])
+def test_equal_quality_on_a_curve_off_the_law_by_hand(db, seconds, how):
+    """equal_quality_s on HAND: the seconds and how, computed by hand above (docstring of spp_for_psnr)."""
+    got, found = convergence.equal_quality_s(HAND, db)
+    assert found == how
+    assert got == pytest.approx(seconds, rel=1e-9)
+
+
+@pytest.mark.parametrize(("db", "spp"), [(29.0, 10**1.9), (30.0, 100.0), (35.0, 10**3.5)])
+def test_a_dipping_rung_is_read_on_the_running_maximum_by_hand(db, spp):
+    """Rungs 20, 30, 28, 40 dB at 10, 100, 1000, 10000 spp: the curve is the running maximum 20, 30, 30, 40,
+    so 35 dB is half-way from (1000, 30) to (10000, 40) in dB, 10^3.5 spp (the raw 28 would give 10^(3 + 7/12));
+    30 dB is first reached at 100 spp; 29 dB is 0.9 of the way from 10 to 100 spp (10^1.9)."""
+    rungs = [Rung(spp=s, seconds=0.01 * s, psnr_db=d, pixels=100) for s, d in
+             ((10, 20.0), (100, 30.0), (1000, 28.0), (10000, 40.0))]
+    got, how = convergence.equal_quality_s(rungs, db)
+    assert how == "interpolated"
+    assert got == pytest.approx(0.01 * spp, rel=1e-9)

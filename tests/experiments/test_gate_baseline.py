@@ -19,7 +19,7 @@ import pytest
 
 from experiments.cli import main as cli
 from experiments.publish import outputs
-from experiments.runs import gate
+from experiments.runs import gate, gate_statistics
 
 TINY = ["camera.width=48", "camera.height=48", "reference.spp=16", "realtime.timing_frames=2",
         "realtime.warmup_frames=1"]
@@ -42,7 +42,7 @@ def test_psnr_tolerance_with_the_same_reference_by_hand():
     # tolerance = 10 log10(1 + 2.684165e-5 / 1e-3) = 0.115035 dB
     base = {"psnr": 30.0, "noise_floor_psnr": 40.0, "pixels": 10000}
     new = {"psnr": 29.0, "noise_floor_psnr": 40.0, "pixels": 10000}
-    assert gate.psnr_tolerance_db(base, new, same_reference=True) == pytest.approx(0.115035, abs=2e-6)
+    assert gate_statistics.psnr_tolerance_db(base, new, same_reference=True) == pytest.approx(0.115035, abs=2e-6)
 
 
 def test_psnr_tolerance_with_different_references_by_hand():
@@ -51,7 +51,7 @@ def test_psnr_tolerance_with_different_references_by_hand():
     # tolerance = 10 log10(1.1716373) = 0.687932 dB (the noisier reference alone explains most of it)
     base = {"psnr": 30.0, "noise_floor_psnr": 40.0, "pixels": 10000, "mse_se": 2e-5}
     new = {"psnr": 29.5, "noise_floor_psnr": 37.0, "pixels": 9000, "mse_se": 3e-5}
-    assert gate.psnr_tolerance_db(base, new, same_reference=False) == pytest.approx(0.687932, abs=2e-6)
+    assert gate_statistics.psnr_tolerance_db(base, new, same_reference=False) == pytest.approx(0.687932, abs=2e-6)
 
 
 def test_block_standard_error_by_hand():
@@ -60,10 +60,10 @@ def test_block_standard_error_by_hand():
     diff = np.zeros((32, 32))
     diff[:16, :16], diff[:16, 16:], diff[16:, :16], diff[16:, 16:] = 1, 2, 3, 4
     sel = np.ones((32, 32), bool)
-    assert gate.block_se(diff, sel) == pytest.approx(0.645497, abs=1e-6)
+    assert gate_statistics.block_se(diff, sel) == pytest.approx(0.645497, abs=1e-6)
     one_tile = np.zeros((32, 32), bool)
     one_tile[2:10, 2:10] = True
-    assert gate.block_se(diff, one_tile) is None  # a single sampling unit gives no spread
+    assert gate_statistics.block_se(diff, one_tile) is None  # a single sampling unit gives no spread
 
 
 def record(psnr=30.0, ssim=0.9, flip=0.05, total=10.0, ref="r0", spp=64, gl="llvmpipe", floor=40.0, **settings):
@@ -308,6 +308,18 @@ def test_unchanged_settings_pass(baseline, tmp_path, capsys):
 
 @pytest.mark.gl
 @pytest.mark.mitsuba
+def test_unchanged_settings_pass_at_tolerances_of_zero(baseline, capsys):
+    """The same scene, settings and cached reference give the baseline's metrics exactly (every delta 0),
+    and a worsening equal to the tolerance passes: so tolerances of 0 pass (docs/gate.md)."""
+    code = cli.main(["gate", SCENE, "--baseline", str(baseline), "--tolerance-db", "0", "--tolerance-ssim", "0",
+                     "--tolerance-flip", "0", *sets("realtime.lod_bias=3")])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    assert "1 passed, 0 failed" in out
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
 def test_a_worsened_setting_fails_with_baseline_new_and_delta(baseline, tmp_path, capsys):
     junit, md = tmp_path / "gate.xml", tmp_path / "gate.md"
     code = cli.main(["gate", SCENE, "--baseline", str(baseline), "--junit", str(junit), "--markdown", str(md),
@@ -381,9 +393,9 @@ def test_ssim_and_flip_shifts_by_hand():
     new["noise_floor_psnr"] = 34.0
     # slope -25 per unit variance, s2 from 1e-4 to 10^-3.4 = 3.981072e-4: SSIM expected to fall by
     # 25 * 2.981072e-4 = 0.0074527; tolerance 2 sqrt(2) 0.001 + 0.0074527 = 0.0102811
-    assert gate.noise_shift("ssim", base, new) == pytest.approx(0.0074527, abs=1e-7)
+    assert gate_statistics.noise_shift("ssim", base, new) == pytest.approx(0.0074527, abs=1e-7)
     new["noise_floor_psnr"] = 46.0  # a cleaner reference never narrows the tolerance
-    assert gate.noise_shift("ssim", base, new) == 0.0
+    assert gate_statistics.noise_shift("ssim", base, new) == 0.0
     new["noise_floor_psnr"] = 34.0
     new_rec = record(ssim=0.891, ref="r1", floor=34.0)
     new_rec["metrics"]["ssim_noise_slope"] = -30.0
@@ -405,7 +417,7 @@ def test_noise_estimates_match_the_spread_over_independent_references():
     mask = np.ones((48, 48), bool)
     sigma = 0.02
     # by hand: t - r = d - n, D_p = mean_c (d - n1)^2 - (d - n2)^2; for d = 0: mse_se = s2 sqrt(2 / (3 N))
-    d0 = gate.metric_noise(truth, truth + sigma * rng.standard_normal(truth.shape),
+    d0 = gate_statistics.metric_noise(truth, truth + sigma * rng.standard_normal(truth.shape),
                            truth + sigma * rng.standard_normal(truth.shape), mask)
     assert d0["mse_se"] == pytest.approx(sigma**2 * math.sqrt(2 / (3 * 48 * 48)), rel=0.1)
     from experiments.measure import metrics
@@ -418,7 +430,7 @@ def test_noise_estimates_match_the_spread_over_independent_references():
         values["ssim"].append(metrics.ssim(test, r1, mask))
         values["flip"].append(metrics.flip(test, r1, mask))
         if len(estimates["mse"]) < 20:
-            est = gate.metric_noise(test, r1, r2, mask)
+            est = gate_statistics.metric_noise(test, r1, r2, mask)
             for k in estimates:
                 estimates[k].append(est[f"{k}_se"])
     for k in values:

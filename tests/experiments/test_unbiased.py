@@ -1,4 +1,5 @@
-"""metrics.psnr_unbiased: statistical checks against a known truth (Gaussian reference noise)."""
+"""metrics.psnr_unbiased: statistical checks against a known truth (Gaussian reference noise), and the
+sampling unit of its standard error (the pixel) by hand, with noise shared by a pixel's channels."""
 
 from __future__ import annotations
 
@@ -99,3 +100,70 @@ def test_finite_and_json_safe_at_the_edges():
         value, clamped = metrics.psnr_unbiased(t, r, r2, mask)
         assert math.isfinite(value) and value <= metrics.PSNR_CAP
         json.dumps(metrics.psnr_unbiased(t, r, r2, mask), allow_nan=False)
+
+
+# ------------------------------------------------------------------- the pixel is the sampling unit
+#
+# Reference noise shared by a pixel's three channels (as path-traced noise largely is), in a pattern whose
+# statistics are known exactly: with s the noise amplitude, the pixels cycle through (a, b) = (s, s), (s, -s),
+# (-s, s), (-s, -s) for r = truth + a, r2 = truth + b (the same a, b on R, G and B), and the test image is
+# truth + c. Then d_p = (c - a)^2 - (a - b)^2 / 2 takes the four values c^2 -+ 2 c s +- s^2: its mean is c^2
+# (the estimate), its population variance 4 c^2 s^2 + s^4 = V. Over N pixels (ddof 1) the standard error is
+#     per pixel:    sqrt(V N / (N - 1)) / sqrt(N) = sqrt(V / (N - 1))
+#     per channel:  sqrt(V / (3 N - 1))        (3 N values, each pixel's repeated: the wrong unit)
+# and the floor is 2 se. Side 64: N = 4096, s = 0.05.
+
+SIDE, S = 64, 0.05
+
+
+def shared_channel_noise(truth: np.ndarray, c: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(test, reference, reference2) of the pattern above, over a (SIDE, SIDE, 3) truth."""
+    k = np.arange(SIDE * SIDE).reshape(SIDE, SIDE) % 4
+    a = np.where(k < 2, S, -S)[..., None]
+    b = np.where(k % 2 == 0, S, -S)[..., None]
+    return truth + c, truth + a, truth + b
+
+
+def closed_form(c: float, n_units: int) -> tuple[float, bool]:
+    """(value dB, clamped) of the pattern above with `n_units` sampling units (N, or 3 N for channels)."""
+    se = math.sqrt((4 * c * c * S * S + S**4) / (n_units - 1))
+    floor = metrics.UNBIASED_FLOOR_SE * se
+    return -10 * math.log10(max(c * c, floor)), c * c <= floor
+
+
+@pytest.mark.parametrize(("c", "clamped", "units_differ"), [
+    (0.0, True, True),        # the test is the truth: the value is the floor, 2.4 dB lower per pixel
+    (0.0077, True, True),     # c^2 = 5.9e-5, between the per-channel floor 4.7e-5 and the per-pixel 8.2e-5
+    (0.02, False, False),     # c^2 = 4e-4, well above both floors: a measurement, whatever the unit
+])
+def test_pixel_is_the_unit_of_the_standard_error_by_hand(c, clamped, units_differ):
+    """Noise shared by a pixel's channels: value and clamped flag equal the closed form with N pixels as the
+    sampling units (the docstring's se = std(d_p) / sqrt(N)); with 3 N channel values they would differ."""
+    truth = np.random.default_rng(3).uniform(0.2, 0.8, (SIDE, SIDE, 3))
+    mask = np.ones((SIDE, SIDE), bool)
+    n = SIDE * SIDE
+    want_value, want_clamped = closed_form(c, n)
+    wrong_value, wrong_clamped = closed_form(c, 3 * n)
+    assert want_clamped == clamped
+    if units_differ:  # the check can tell the channel unit from the pixel unit
+        assert abs(wrong_value - want_value) > 1.0 or wrong_clamped != want_clamped
+    value, got_clamped = metrics.psnr_unbiased(*shared_channel_noise(truth, c), mask)
+    assert got_clamped == want_clamped
+    assert value == pytest.approx(want_value, abs=1e-6)
+
+
+def test_shared_gaussian_noise_gives_the_per_pixel_resolution(truth):
+    """Gaussian noise of variance s^2 added alike to a pixel's three channels, test = truth: d_p =
+    n1^2 - (n1 - n2)^2 / 2 has variance 2 s^4 (E n^4 = 3 s^4), so se = s^2 sqrt(2 / N) over N pixels and
+    the value is -10 log10(2 se) within 0.3 dB, where independent channels (or channel units) give
+    s^2 sqrt(2 / (3 N)), 10 log10(sqrt 3) = 2.39 dB higher."""
+    sigma = 0.02
+    n = SHAPE[0] * SHAPE[1]
+    mask = np.ones(SHAPE[:2], bool)
+    resolution_db = -10 * math.log10(metrics.UNBIASED_FLOOR_SE * sigma**2 * math.sqrt(2 / n))
+    rng = np.random.default_rng(11)
+    for _ in range(5):
+        n1, n2 = (rng.normal(0.0, sigma, SHAPE[:2])[..., None] for _ in range(2))
+        value, _ = metrics.psnr_unbiased(truth, truth + n1, truth + n2, mask)
+        assert value == pytest.approx(resolution_db, abs=0.3)
+        assert value < resolution_db + 10 * math.log10(math.sqrt(3)) - 1.0

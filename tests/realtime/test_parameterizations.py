@@ -11,6 +11,8 @@ Independent expectations:
 - the LOD rule is in solid angle: the level a lookup reads covers the solid angle of the cube's mean
   texel at the host's LOD (read back by storing each level's index in the level itself);
 - the sphere map made for the render view matches the cube map on a mirror sphere away from its rim;
+- a sphere map captured off-axis (a frame that is not its own transpose, written by hand) holds a marked
+  direction at the texel the mirror ball formula gives, and lights the mirror sphere where the reflection says;
 - per-vertex reflection vectors on a coarse sphere err more than per-pixel ones.
 """
 
@@ -150,6 +152,63 @@ def test_a_marked_direction_lights_the_same_pixel_on_every_parameterization(tmp_
         assert np.linalg.norm(got - want) < 0.75, (param, got, want)
     assert np.linalg.norm(centroids["dual_paraboloid"] - centroids["cube"]) < 0.75
     assert np.linalg.norm(centroids["sphere_map"] - centroids["cube"]) < 0.75
+
+
+# A sphere map captured along (1, 0, -1) with the camera's up (+y). By hand, the world -> map rotation has
+# the rows right = (1, 0, 1) / sqrt 2, up = +y, back = (-1, 0, 1) / sqrt 2: a 45 degree turn about y that
+# differs from its transpose, so a store or a shader that applies the inverse frame puts things elsewhere.
+OFF_AXIS = [1.0, 0.0, -1.0]
+OFF_AXIS_FRAME = np.array([[1.0, 0.0, 1.0], [0.0, math.sqrt(2.0), 0.0], [-1.0, 0.0, 1.0]]) / math.sqrt(2.0)
+#: the marked direction: 55 degrees from the capture's back axis, seen head-on from the render camera
+MARK = np.array([0.0, 0.6, 0.8])
+
+
+def mirror_ball_texel(d_map: np.ndarray, size: int) -> np.ndarray:
+    """(row, column) in texel units (texel centres at integers) of a map-frame direction on a sphere map
+    of side `size`: the mirror ball's normal there is the half vector of d and the viewer's +z, and the
+    map position is that normal's (x, y); row 0 at y = -1."""
+    h = d_map + np.array([0.0, 0.0, 1.0])
+    x, y = h[:2] / np.linalg.norm(h)
+    return np.array([(y + 1) / 2 * size - 0.5, (x + 1) / 2 * size - 0.5])
+
+
+def test_off_axis_sphere_map_holds_the_mark_where_the_mirror_ball_puts_it(tmp_path):
+    """The GPU fill of a sphere map captured off-axis: the bright mark's centroid is at the texel the mirror
+    ball formula gives for the hand-made frame (within 0.75 texel), far from where the inverse frame puts it."""
+    path = tmp_path / "mark.exr"
+    envmap.write(path, blob_environment(MARK, sigma_deg=3.0))
+    scene = small("builtin:sphere-phong", **{"environment.map": str(path), "realtime.parameterization": "sphere_map",
+                                              "realtime.sphere_map.capture": OFF_AXIS, "realtime.base_size": 64})
+    np.testing.assert_allclose(map_frame(scene), OFF_AXIS_FRAME, atol=1e-15)
+    store = environment_store(get_context(), scene)
+    try:
+        store.fill_base(scene.environment.rotation_deg)
+        level = store.read_level(0)[0]
+    finally:
+        store.release()
+    size = level.shape[0]
+    got = weighted_centroid(level, np.ones(level.shape[:2], bool))
+    want = mirror_ball_texel(OFF_AXIS_FRAME @ MARK, size)
+    wrong = mirror_ball_texel(OFF_AXIS_FRAME.T @ MARK, size)
+    assert np.linalg.norm(want - wrong) > 10  # the inverse frame moves the mark by tens of texels
+    assert np.linalg.norm(got - want) < 0.75, (got, want, wrong)
+
+
+def test_off_axis_sphere_map_lights_the_mirror_sphere_where_the_reflection_says(tmp_path):
+    """A mirror sphere under a sphere map captured off-axis: the mark lights the pixel the analytic
+    reflection predicts (the fill and the GLSL lookup must both use the frame, neither its inverse).
+    With the lookup's frame inverted the mark would show at the reflection (F F) MARK = (0.8, 0.6, 0)."""
+    path = tmp_path / "mark.exr"
+    envmap.write(path, blob_environment(MARK))
+    scene = small("builtin:sphere-phong", **{"environment.map": str(path), "realtime.parameterization": "sphere_map",
+                                              "realtime.sphere_map.capture": OFF_AXIS, "realtime.base_size": 64,
+                                              "realtime.face_size": 64, "objects.0.material.exponent": 1e6})
+    r = realtime.render(scene)
+    refl, interior = reflections(scene)
+    sel = interior & r.mask
+    want = weighted_centroid(envmap.lookup(scene.environment.radiance(), refl), sel)
+    got = weighted_centroid(r.rgb, sel)
+    assert np.linalg.norm(got - want) < 0.75, (got, want)
 
 
 def test_sphere_map_made_for_the_render_view_matches_the_cube_away_from_its_rim():

@@ -5,7 +5,8 @@ axis about the surface f = 1/2 - r^2/2 (Heidrich & Seidel); the sphere map's (s,
 GL_SPHERE_MAP formula; exact texel solid angles against 4 pi, against a closed-form antiderivative
 (the differential-area-to-rectangle view factor) and a Monte Carlo histogram of uniform directions;
 the analytic max/min solid-angle ratios (cube 3 sqrt 3, dual paraboloid 4, sphere map 1); the stretch
-(conformal vs equal-area); the capture frame against the camera's own view matrix.
+(conformal vs equal-area); the capture frame against the camera's own view matrix, and an off-axis
+capture frame (a 45 degree turn, written by hand) placing world directions at the mirror ball's positions.
 """
 
 from __future__ import annotations
@@ -197,3 +198,53 @@ def test_sphere_map_fill_is_continuous_across_the_rim():
         outside = spheremap.position_to_direction((1 + eps) * c, (1 + eps) * s)
         assert np.linalg.norm(inside - outside) < 1e-2
         assert outside[2] < -0.99
+
+
+# A capture camera looking along (1, 0, -1) with up +y. By hand: right = forward x up = (1, 0, 1) / sqrt 2,
+# true up = +y, back = -forward = (-1, 0, 1) / sqrt 2 (the rows of the world -> map rotation): a 45 degree
+# turn about y, which differs from its transpose (the inverse turn), unlike the identity or an axis swap.
+OFF_AXIS_FORWARD = (1.0, 0.0, -1.0)
+OFF_AXIS_FRAME = np.array([[1.0, 0.0, 1.0], [0.0, math.sqrt(2.0), 0.0], [-1.0, 0.0, 1.0]]) / math.sqrt(2.0)
+S225, S675 = math.sin(math.radians(22.5)), math.sin(math.radians(67.5))
+
+
+def test_off_axis_capture_frame_by_hand():
+    """capture_frame of a view along (1, 0, -1) is the hand-made 45 degree turn above; its transpose is not."""
+    frame = spheremap.capture_frame(OFF_AXIS_FORWARD, (0.0, 1.0, 0.0))
+    np.testing.assert_allclose(frame, OFF_AXIS_FRAME, atol=1e-15)
+    assert np.abs(OFF_AXIS_FRAME - OFF_AXIS_FRAME.T).max() > 1.0  # the check can tell a transposed frame
+
+
+@pytest.mark.parametrize(("world", "want", "transposed"), [
+    ((1.0, 0.0, 0.0), (S675, 0.0), (S225, 0.0)),     # 135 degrees from the back axis, on the map's +x side
+    ((0.0, 0.0, 1.0), (S225, 0.0), (-S225, 0.0)),    # 45 degrees from it
+    ((-1.0, 0.0, 0.0), (-S225, 0.0), (-S675, 0.0)),
+    ((0.0, 0.0, -1.0), (-S675, 0.0), (S675, 0.0)),
+    ((0.0, 1.0, 0.0), (0.0, math.sqrt(0.5)), (0.0, math.sqrt(0.5))),  # the turn's axis: 90 degrees, rho sin 45
+    ((-1.0, 0.0, 1.0), (0.0, 0.0), (-math.sqrt(0.5), 0.0)),  # back at the capture camera: the centre
+])
+def test_off_axis_capture_puts_world_directions_where_the_mirror_ball_says(world, want, transposed):
+    """World direction -> map position through an off-axis capture frame, against the mirror ball by hand.
+
+    A direction at angle theta from the map's +z (back at the capture camera) and azimuth phi in the
+    map's xy plane sits at rho = sin(theta / 2) on that azimuth (the ball's normal halves the angle
+    between the view and the reflection). The expected positions are those numbers for the hand-made
+    frame above; `transposed` is where the inverse frame would put them (distinct except on the turn's
+    axis). The round trip position -> direction -> world (rows: frame^T d) gives the direction back.
+    """
+    d = np.asarray(world) / np.linalg.norm(world)
+    frame = spheremap.capture_frame(OFF_AXIS_FORWARD, (0.0, 1.0, 0.0))
+    layer, x, y = spheremap.direction_to_position(frame @ d)
+    assert layer == 0
+    np.testing.assert_allclose([x, y], want, atol=1e-12)
+    _, xt, yt = spheremap.direction_to_position(OFF_AXIS_FRAME.T @ d)  # the mistake: the inverse frame
+    np.testing.assert_allclose([xt, yt], transposed, atol=1e-12)
+    if world != (0.0, 1.0, 0.0):
+        assert math.dist(want, transposed) > 0.5
+    back = spheremap.position_to_direction(x, y) @ frame  # world direction: frame^T (map direction)
+    np.testing.assert_allclose(back, d, atol=1e-12)
+    # the same texel on a 64 x 64 map as the hand position gives (row from y, column from x)
+    size = 64
+    _, row, col = spheremap.direction_to_texel(frame @ d, size)
+    hand = (min(int((want[1] + 1) / 2 * size), size - 1), min(int((want[0] + 1) / 2 * size), size - 1))
+    assert (int(row), int(col)) == hand
