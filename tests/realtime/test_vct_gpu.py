@@ -8,7 +8,11 @@
 - a plane under a sphere of radius r at height h: the cones' visibility is the analytic 1 - (r/h)^2
   within one voxel of radius either way;
 - energy: in a closed white box lit through a small opening, the gathered irradiance grows with the
-  bounces and stays under the geometric series E_1 (1 - rho^k) / (1 - rho);
+  bounces and stays under the geometric series E_1 (1 - rho^k) / (1 - rho); inside an enclosure whose
+  walls show radiance L inward the cones gather pi L (1 - V) exactly; a plane alone injects
+  kd / pi E(n) into its upper face and gathers nothing;
+- the level a cone sample reads is the one vct_math.sample_lod predicts (level-coded mips);
+- a wall lit on one side reads alike in all six orientations, and its dark side gathers nothing;
 - the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light.
 """
 
@@ -164,11 +168,11 @@ def test_plane_alone_sees_the_whole_sky_even_on_a_voxel_boundary(ctx):
 
 def test_distant_occluder_is_over_occluded_as_measured(ctx):
     # a known limit, measured rather than hidden: a sphere (r = 0.5) one diameter above the plane blocks 11 %
-    # of the cosine lobe. The footprint rule that keeps cones off their own surface (a sample's voxel at most
-    # a third of its height above the tangent plane) narrows the cone along the normal to about a third of
-    # its 60-degree width, so an occluder on its axis reads as filling the whole cone (about 26 % blocked
-    # here: that cone's share of the lobe). A lod bias (finer voxels) does not change it; a looser rule
-    # (2/3 of the height) brings back the plane's self-occlusion.
+    # of the cosine lobe. The footprint cap that keeps cones off their own surface (vct_math.footprint_cap:
+    # the lookup's coarser texel at most (height - h0) / 1.5) narrows the cone along the normal to between a
+    # third and two thirds of its 60-degree width, so an occluder on its axis reads as filling the whole cone
+    # (about 26 % blocked here: that cone's share of the lobe). A lod bias (finer voxels) does not change it;
+    # a looser cap brings back the plane's self-occlusion.
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"objects.0.translate": [0.0, 1.5, 0.0]})
     env = sh_of(ctx, scene)
     vs = voxels(ctx, scene.objects, 64, env=env)
@@ -267,3 +271,190 @@ def test_frame_reports_voxelize_mip_memory_and_bounce_adds_light():
     assert occ.rgb[m].mean() < direct.rgb[m].mean()  # occlusion takes light away
     assert (both.rgb[m] >= occ.rgb[m] - 1e-6).all()  # the bounce only adds it back
     assert both.rgb[m].mean() > occ.rgb[m].mean()
+
+
+AXES = [(a, s) for a in range(3) for s in (1, -1)]
+
+
+def blank_voxels(ctx, res: int, step: float = 0.5):
+    """A VoxelScene over [-1, 1]^3 (one cascade) whose textures the test writes itself."""
+    from realtime.techniques.vct.vct import VoxelScene
+
+    plane = scenes.load("builtin:sphere-on-plane").objects[1]
+    return VoxelScene(ctx, [plane], res, 1, 6, step, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, res, 1))
+
+
+FILL_LEVEL = """#version 430
+layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
+layout(rgba16f, binding = 0) uniform writeonly image3D dst;
+uniform ivec3 size;
+uniform vec4 value;
+void main() {
+    ivec3 g = ivec3(gl_GlobalInvocationID);
+    if (all(lessThan(g, size))) imageStore(dst, g, value);
+}
+"""
+
+
+@pytest.fixture(scope="module")
+def level_coded(ctx):
+    """Every mip level k of every face holds radiance (k, 0, 0) and opacity 1, and the step is 4 cone
+    diameters: a cone stops at its first sample (1 - 1e-4^4 opaque), whose red is the level it read
+    (the mip-linear blend of two levels k and k + 1 at lod k + f is k + f)."""
+    res = 16
+    vs = blank_voxels(ctx, res, step=4.0)
+    fill = ctx.compute_shader(FILL_LEVEL)
+    for tex in vs.faces:
+        for k in range(vs.grid.levels):
+            r = res >> k
+            tex.bind_to_image(0, read=False, write=True, level=k)
+            fill["size"] = (r, r, r)
+            fill["value"] = (float(k), 0.0, 0.0, 1.0)
+            fill.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
+    ctx.memory_barrier()
+    fill.release()
+    yield vs
+    vs.release()
+
+
+LEVEL_CASES = {  # name: (height of the sample above the surface, t, tan(half-angle), normal), lengths in voxels
+    "narrow cone": (12.0, 4.0, 0.05, (0.0, 1.0, 0.0)),
+    "medium cone": (12.0, 4.0, 0.3, (0.0, 1.0, 0.0)),
+    "wide cone, capped": (12.0, 4.0, 0.6, (0.0, 1.0, 0.0)),
+    "wide cone, higher": (24.0, 4.0, 0.6, (0.0, 1.0, 0.0)),
+    "tilted surface": (16.0, 4.0, 1.0, (0.7071067811865476, 0.7071067811865476, 0.0)),
+    "upright surface": (16.0, 4.0, 1.0, (0.0, 0.0, -1.0)),
+    "near the surface": (3.0, 1.0, 0.6, (1.0, 0.0, 0.0)),
+}
+
+
+@pytest.mark.parametrize("name", list(LEVEL_CASES))
+def test_shader_reads_the_level_sample_lod_predicts(level_coded, name):
+    """The level vct_cone reads at a sample is vct_math.sample_lod's (whose cap is checked box by box in
+    test_vct_math.py): read back through level-coded mips, to the mips' fp16 and the sampler's precision."""
+    vs = level_coded
+    h0 = vs.grid.voxel_size
+    height, t, tan_half, normal = LEVEL_CASES[name]
+    n = np.array(normal)
+    p = np.array([0.02, -0.03, 0.01])  # the sample, near the grid's centre
+    r = vs.trace_cone(np.array([p - t * h0 * n]), np.array([n]), np.array([tan_half]), np.array([t * h0]),
+                      np.array([p - height * h0 * n]), np.array([n]))[0]
+    want = vct_math.sample_lod(t * h0, tan_half, height * h0, n, h0)[0]
+    assert r[3] == pytest.approx(1.0, abs=1e-6)
+    assert r[0] == pytest.approx(want, abs=0.02), (name, r, want)
+
+
+def test_wider_aperture_reads_a_coarser_level(level_coded):
+    """Below the footprint cap the cone's own width governs: at the same sample, cones of tan(half-angle)
+    0.1, 0.2 and 0.4 read levels log2 of 0.8 (clamped to 0), 1.6 and 3.2 voxels (by hand: 2 t tan with
+    t = 4), all under the cap floor(log2((24 - 1) / 1.5)) = 3; the widest, tan 2, reads the cap."""
+    vs = level_coded
+    h0 = vs.grid.voxel_size
+    n = np.array([0.0, 1.0, 0.0])
+    p = np.array([0.02, -0.03, 0.01])
+    tans = np.array([0.1, 0.2, 0.4, 2.0])
+    k = len(tans)
+    r = vs.trace_cone(np.tile(p - 4 * h0 * n, (k, 1)), np.tile(n, (k, 1)), tans, np.full(k, 4 * h0),
+                      np.tile(p - 24 * h0 * n, (k, 1)), np.tile(n, (k, 1)))
+    assert np.allclose(r[:, 0], [0.0, math.log2(1.6), math.log2(3.2), 3.0], atol=0.02), r[:, 0]
+
+
+def test_enclosure_of_uniform_radiance_gathers_pi_l_times_what_it_blocks(ctx):
+    """Inside a closed box whose walls show radiance L to the inside (their outward faces black), every
+    cone gathers L times its own opacity, so E = sum_k w_k L (1 - T_k) = pi L (1 - V) exactly, whatever the
+    walls' leak; for each of the six normals. Tolerance: the mips' fp16 (0.5 %). A cone reading a wall's
+    outward face (a face swapped), radiance not rescaled with the Beer-Lambert opacity, or weights that
+    differ between E and V break the identity; the walls must also block most of the sky (V < 0.25: a
+    one-voxel wall leaks through coarse levels, E10's thin-wall leak)."""
+    res, L = 32, 0.7
+    vs = blank_voxels(ctx, res)
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    lo, hi = 2, res - 3
+    for a, s in AXES:
+        sl = [slice(lo, hi + 1)] * 3
+        sl[a] = hi if s > 0 else lo
+        for f in range(6):
+            outward = f // 2 == a and (1 if f % 2 == 0 else -1) == s
+            faces[(f, 0, *sl)] = [0.0, 0.0, 0.0, 1.0] if outward else [L, L, L, 1.0]
+    vs.write_level0(faces)
+    vs.build_mips()
+    normals = np.array([[s if i == a else 0.0 for i in range(3)] for a, s in AXES])
+    r = vs.probe(np.full((6, 3), 0.01), normals)
+    vs.release()
+    assert (r[:, 3] < 0.25).all(), r
+    assert np.allclose(r[:, 0], math.pi * L * (1.0 - r[:, 3]), rtol=5e-3), r
+
+
+def wall_reading(ctx, axis: int, sign: int, res: int = 32, gap: int = 4, L: float = 1.0) -> np.ndarray:
+    """A one-voxel wall across the whole grid, perpendicular to `axis`, `gap` voxels from the centre on the
+    `sign` side; the face toward the centre shows radiance L, the others black, all opaque. Probes at the
+    centre facing the wall (lit side) and at its mirror image through the wall facing it (dark side):
+    (2, 4) = (gathered rgb, visibility) of each."""
+    vs = blank_voxels(ctx, res)
+    h0 = vs.grid.voxel_size
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    layer = res // 2 + gap if sign > 0 else res // 2 - 1 - gap
+    sl = [slice(None)] * 3
+    sl[axis] = layer
+    faces[(slice(None), 0, *sl)] = [0.0, 0.0, 0.0, 1.0]
+    lit = 2 * axis + (1 if sign > 0 else 0)  # the face pointing back toward the centre
+    faces[(lit, 0, *sl)] = [L, L, L, 1.0]
+    vs.write_level0(faces)
+    vs.build_mips()
+    n = np.zeros(3)
+    n[axis] = sign
+    wall = sign * (gap + 0.5) * h0  # the wall's middle along the axis
+    points = np.array([np.zeros(3), 2 * wall * n * sign])
+    r = vs.probe(points, np.array([n, -n]))
+    vs.release()
+    return r
+
+
+@pytest.fixture(scope="module")
+def wall_along_y(ctx):
+    return wall_reading(ctx, 1, 1)
+
+
+@pytest.mark.parametrize(("axis", "sign"), AXES)
+def test_wall_lit_on_one_side_reads_alike_in_six_orientations(ctx, wall_along_y, axis, sign):
+    """A wall lit on one side, rotated onto each axis and sign, must read the same (the configuration is
+    the same up to a rotation or mirror of the grid: 1 % for the fp16 mips and the cones' azimuths), and:
+    the dark side gathers no radiance at all (no face carrying any faces it), the lit side between
+    L sum_k w_k cos^2(theta_k) - pi L V (each cone reads the wall's lit face with weight cos^2 of its angle to
+    the wall's normal, the faces across it black, times its opacity) and pi L (1 - V). A cone reading the
+    wrong face of an axis (the two faces swapped, or the sign test flipped) gathers the dark face on the
+    lit side and the lit face on the dark side for that axis."""
+    r = wall_reading(ctx, axis, sign)
+    L = 1.0
+    cones = vct_math.cone_set(6)
+    assert np.abs(r[1, :3]).max() < 1e-6, r  # the dark side
+    e, v = r[0, 0], r[0, 3]
+    lo = L * float((cones.weights * cones.directions[:, 2] ** 2).sum()) - math.pi * L * v
+    assert lo <= e <= math.pi * L * (1.0 - v), (r, lo)
+    assert np.allclose(r, wall_along_y, rtol=0.01, atol=1e-4), (r, wall_along_y)
+
+
+def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx):
+    """A plane alone under the sky: its voxels' upper face holds kd / pi E(up) (E the SH9 irradiance of the
+    environment, read back from the environment filter: the injection's visibility is 1 for an open plane,
+    fp16 and a visibility down to 0.99 give the tolerance), its lower face black; and a point on it sees
+    the whole sky (V within [0.99, 1]) and gathers no radiance (it sees no voxel's lit face)."""
+    scene = scenes.load("builtin:sphere-on-plane")
+    plane = scene.objects[1]  # y = 0, half size 2, kd
+    env = sh_of(ctx, scene)
+    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
+    _, M = env.read_sh()
+    n4 = np.array([0.0, 1.0, 0.0, 1.0])
+    sky = np.array([n4 @ M[c] @ n4 for c in range(3)])
+    faces = vs.read_faces(0)[:, 0]
+    layer = faces[:, 8:24, 15, 8:24]  # the plane's layer away from its edges
+    want = np.asarray(plane.material.kd) / math.pi * sky
+    py, ny = layer[2].reshape(-1, 4), layer[3].reshape(-1, 4)
+    assert (py[:, 3] == 1.0).all() and (ny[:, 3] == 1.0).all()
+    assert np.all(py[:, :3] <= want * 1.002) and np.all(py[:, :3] >= want * 0.99 * 0.998), (py[:3], want)
+    assert np.abs(ny[:, :3]).max() == 0.0
+    r = vs.probe(np.array([[0.0, 0.0, 0.0], [1.1, 0.0, -0.7]]), np.tile([0.0, 1.0, 0.0], (2, 1)))
+    assert ((r[:, 3] >= 0.99) & (r[:, 3] <= 1.0 + 1e-6)).all(), r
+    assert np.abs(r[:, :3]).max() <= 1e-4 * sky.max(), r
+    vs.release()
+    env.release()

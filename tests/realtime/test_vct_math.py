@@ -156,3 +156,86 @@ def test_unsimulated_effects_of_vct_configurations():
                                                                  "realtime.interreflection": "vct"})
     assert technique.unsimulated_effects(torus) == []
     assert technique.owner_of("realtime.vct.cascades") == ("occlusion", "vct")
+
+
+def lowest_read_point(p: np.ndarray, n: np.ndarray, s: float, grid_origin: np.ndarray) -> float:
+    """Height along n (above the plane through the origin) of the lowest point of the 2 x 2 x 2 texels of
+    edge s a trilinear lookup at p reads (the texels whose centres lie within one texel of p on each axis;
+    texel k on an axis spans [g + k s, g + (k + 1) s]): found box by box, not from the cap's formula."""
+    low = 0.0
+    for a in range(3):
+        k0 = math.floor((p[a] - grid_origin[a]) / s - 0.5)
+        lo, hi = grid_origin[a] + k0 * s, grid_origin[a] + (k0 + 2) * s
+        low += min(n[a] * lo, n[a] * hi)
+    return low
+
+
+NORMALS = {"axis": [0.0, 1.0, 0.0], "edge": [1.0, 1.0, 0.0], "diagonal": [1.0, -1.0, 1.0],
+           "oblique": [0.3, 0.9, -0.2]}
+
+
+@pytest.mark.parametrize("name", list(NORMALS))
+def test_footprint_cap_keeps_the_lookup_off_the_surface_and_is_tight(name):
+    """The capped level's lookup never reaches the voxels of the surface the cone leaves, and one level
+    coarser would. Expected from the boxes themselves: the surface's conservative voxels (boxes of edge h0
+    crossing the plane) reach at most h0 |n|_1 above it; the lowest point of the eight texels read at the
+    coarser level (edge h0 2^lod for an integer lod) is found box by box for random points, heights and
+    grid offsets (lowest_read_point). A cap one level too fine or too coarse (a 1.5 texel reach taken as 1,
+    the |n|_1 of a tilted normal dropped, floor taken as round) fails one of the two checks."""
+    h0 = 1.0
+    n = np.array(NORMALS[name]) / np.linalg.norm(NORMALS[name])
+    n1 = np.abs(n).sum()
+    top = h0 * n1  # the surface's own voxels lie below this height
+    rng = np.random.default_rng(7)
+    tangent = vct_math.tangent_frame(n)[:2]
+    reaches_at_next = 0
+    for _ in range(400):
+        height = rng.uniform(2.5 * n1, 80.0)  # where the cap is above level 0 (below it the offsets decide)
+        p = height * n + tangent.T @ rng.uniform(-20.0, 20.0, 2)
+        origin = rng.uniform(0.0, 64.0, 3)  # the grid's corner: levels share it, texels are 2^lod voxels
+        lod = vct_math.footprint_cap(height, n, h0)
+        assert lod == int(lod) and lod >= 0
+        assert lowest_read_point(p, n, h0 * 2.0 ** lod, origin) >= top - 1e-9, (height, lod)
+        reaches_at_next += lowest_read_point(p, n, h0 * 2.0 ** (lod + 1), origin) < top
+    assert reaches_at_next > 100  # one level coarser reaches the surface for a good share of the points
+
+
+def test_sample_lod_by_hand():
+    """The level a sample reads, computed by hand (h0 = 1, an axis-aligned surface, 24 voxels below the
+    sample, cap floor(log2((24 - 1) / 1.5)) = floor(log2 15.3) = 3): a cone diameter below one voxel reads
+    level 0; 2.4 and 4.8 voxels read log2 of them; 16 voxels is capped at 3; lod_min raises the level read
+    but not the footprint (the step)."""
+    up = np.array([0.0, 1.0, 0.0])
+    assert vct_math.footprint_cap(24.0, up, 1.0) == 3.0
+    assert vct_math.sample_lod(4.0, 0.05, 24.0, up, 1.0) == (0.0, 1.0)
+    lod, diam = vct_math.sample_lod(4.0, 0.3, 24.0, up, 1.0)
+    assert lod == pytest.approx(math.log2(2.4)) and diam == pytest.approx(2.4)
+    lod, diam = vct_math.sample_lod(4.0, 0.6, 24.0, up, 1.0)
+    assert lod == pytest.approx(math.log2(4.8)) and diam == pytest.approx(4.8)
+    assert vct_math.sample_lod(4.0, 2.0, 24.0, up, 1.0) == (3.0, 8.0)
+    assert vct_math.sample_lod(4.0, 0.05, 24.0, up, 1.0, lod_min=1.0) == (1.0, 1.0)
+    # the voxel size scales out: h0 = 0.25 with every length scaled alike reads the same level
+    assert vct_math.sample_lod(1.0, 0.6, 6.0, up, 0.25) == (pytest.approx(math.log2(4.8)), pytest.approx(1.2))
+
+
+@pytest.mark.parametrize("count", [4, 6, 9])
+def test_diffuse_cones_leaving_a_plane_read_the_capped_level(count):
+    """What the docs state: every diffuse cone of 4, 6 or 9 is wider than the footprint cap allows anywhere
+    along it when it leaves a plane (its 2 tan(half-angle) >= 0.9 against a cap of at most 2/3 of the
+    height), so it reads the capped level, while a cone a fifth as wide keeps its own, finer one. The
+    heights are those of vct_diffuse's cones: the origin 1.5 voxels along n, then t cos(polar) more."""
+    from realtime.techniques.vct import vct
+
+    cones = vct_math.cone_set(count)
+    tan_half = math.tan(cones.half_angle)
+    up = np.array([0.0, 0.0, 1.0])
+    narrower_somewhere = False
+    for d in cones.directions:
+        for t in np.linspace(vct.START_OFFSET_VOXELS, 60.0, 40):
+            height = vct.NORMAL_OFFSET_VOXELS + t * d[2]
+            cap = vct_math.footprint_cap(height, up, 1.0)
+            assert vct_math.sample_lod(t, tan_half, height, up, 1.0)[0] == cap
+            narrow = vct_math.sample_lod(t, tan_half / 5.0, height, up, 1.0)[0]
+            assert narrow <= cap
+            narrower_somewhere |= narrow < cap
+    assert narrower_somewhere

@@ -32,12 +32,16 @@ diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy 
 from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
 through the paper's reflectance. The cones start NORMAL_OFFSET_VOXELS along the normal and
 START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
-self-intersection offset, with FOOTPRINT_RATIO: a sample's voxel is at most a third of its height
-above the tangent plane. That rule keeps a cone from reading its own surface's voxels at coarse levels
-(without it a plane sees 15% less sky than it should), but it narrows the cones near the surface: an
-occluder on a cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py measures the
-over-occlusion under a sphere). Their cost is inside `draw`; E10 reports `trace` as draw minus the same
-scene's direct-only draw.
+self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
+the level its cone's diameter gives, but never one whose trilinear, mip-linear lookup reaches the voxels of the
+surface it leaves (derived from the lookup: the coarser level's texel at most
+(height / |n|_1 - h0) / 1.5). The cap keeps a plane from reading itself (without it a plane sees 15% less
+sky than it should), but it binds for every diffuse cone of 4, 6 or 9 (their 2 tan(half-angle) >= 0.9
+exceeds the cap's at most 2/3 of the height all along a cone leaving a plane), so `diffuse_cones` sets
+their directions and weights, not their levels; narrower cones (the glossy one) keep their own width.
+An occluder on a capped cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py
+measures the over-occlusion under a sphere). The cones' cost is inside `draw`; E10 reports `trace` as
+draw minus the same scene's direct-only draw.
 """
 
 from __future__ import annotations
@@ -58,9 +62,6 @@ from scenes.model import materials
 NORMAL_OFFSET_VOXELS = 1.5
 #: and their first sample is this many voxels along the cone from there
 START_OFFSET_VOXELS = 1.0
-#: a cone sample's voxel is at most this times its height above the surface's tangent plane (its trilinear
-#: footprint never reaches the surface's own voxels: the self-intersection rule near the horizon)
-FOOTPRINT_RATIO = 0.33
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
 #: injection's visibility cones read mips >= this (level 0 is being written in the same pass)
@@ -160,6 +161,7 @@ class VoxelScene:
         self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
         self.probe_prog = None
+        self.cone_prog = None
         self.updated_frame: int | None = None
         self.split: dict[str, float] = {}
 
@@ -249,7 +251,6 @@ class VoxelScene:
         set_uniform(prog, "vct_step", self.step)
         set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
         set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
-        set_uniform(prog, "vct_footprint_ratio", FOOTPRINT_RATIO)
         cones = self.cones
         dirs = np.zeros((9, 3), "f4")
         dirs[: len(cones.directions)] = cones.directions
@@ -317,6 +318,34 @@ class VoxelScene:
         out.release()
         return res
 
+    def trace_cone(self, origins: np.ndarray, directions: np.ndarray, tan_half: np.ndarray, t0: np.ndarray,
+                   surfaces: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
+        """Tests: single cones as the shading traces them (vct_trace.glsl's vct_cone): (N, 4) = (radiance
+        gathered, occlusion) of the cones from `origins` along `directions` with tan(half-angle) `tan_half`,
+        first sample at `t0`, leaving the surface through `surfaces` with `normals`."""
+        if self.cone_prog is None:
+            self.cone_prog = self.ctx.compute_shader(shader_source("vct_cone.comp", package=__package__))
+        p = self.cone_prog
+        n = len(origins)
+        data = np.zeros((n, 4, 4), "f4")
+        data[:, 0, :3], data[:, 0, 3] = origins, t0
+        data[:, 1, :3], data[:, 1, 3] = directions, tan_half
+        data[:, 2, :3], data[:, 3, :3] = surfaces, normals
+        limits.check_storage(self.ctx, data.nbytes, "cones", "the cone probe's cones")
+        src = self.ctx.buffer(data.tobytes())
+        out = self.ctx.buffer(reserve=n * 16)
+        self.bind_trace(p)
+        src.bind_to_storage_buffer(0)
+        out.bind_to_storage_buffer(1)
+        p["count"] = n
+        set_uniform(p, "lod_min", lod_min)
+        p.run(groups(n, 64))
+        self.ctx.memory_barrier()
+        res = np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)
+        src.release()
+        out.release()
+        return res
+
     def meta(self) -> dict:
         g = self.grid
         per = g.bytes_per_cascade(BYTES_PER_VOXEL)
@@ -333,7 +362,7 @@ class VoxelScene:
 
     def release(self) -> None:
         for r in [self.triangles, *self.scratch, *self.faces, self.voxelize_prog, self.inject_prog,
-                  self.mip_prog, self.probe_prog]:
+                  self.mip_prog, self.probe_prog, self.cone_prog]:
             if r is not None:
                 r.release()
 

@@ -7,6 +7,8 @@ or the GPU side needs without GL.
   2 pi (1 - cos a) is the lobe's 2 pi / (N + 1) (McGuire et al. 2013), clamped to [1, 30] degrees.
 - `Cascades`: nested cubic grids, each twice the extent of the one inside it, centred on the objects;
   `level_of` is the seed's level selection (the cone's diameter picks the cascade and its mip).
+- `footprint_cap` and `sample_lod`: the level a cone sample reads (vct_trace.glsl's `vct_cone`): the
+  cone's diameter, capped where the lookup would reach the voxels of the surface the cone leaves.
 - `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged),
   the reference the GPU's vct_mip.comp is tested against.
 - `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
@@ -143,6 +145,31 @@ class Cascades:
         """A plain 3D texture with the finest voxel size over the outermost extent, mip chain included."""
         r = self.resolution << (self.count - 1)
         return sum((r >> m) ** 3 for m in range(int(math.log2(r)) + 1)) * bytes_per_voxel
+
+
+def footprint_cap(height: float, normal: np.ndarray, voxel: float) -> float:
+    """The coarsest lod (over the whole pyramid, texel h0 2^lod) whose lookup at `height` above the tangent
+    plane of normal `normal` stays off that surface's own voxels (h0 = `voxel`; vct_trace.glsl).
+
+    A trilinear, mip-linear lookup at lod reads the 2x2x2 texels around p at levels floor(lod) and
+    ceil(lod); the coarser ones, of edge s = h0 2^ceil(lod), reach 1.5 s from p along each axis, which is
+    1.5 s |n|_1 below p along n. The surface's own voxels (conservative: boxes crossing the plane) reach
+    h0 |n|_1 above it. No overlap while height - 1.5 s |n|_1 >= h0 |n|_1: s <= (height / |n|_1 - h0) / 1.5,
+    so lod <= floor(log2 of that over h0), never below 0 (the offsets clear level 0)."""
+    n1 = float(np.abs(np.asarray(normal, dtype=np.float64)).sum())
+    s_max = (height / n1 - voxel) / 1.5
+    return float(math.floor(math.log2(max(s_max, voxel) / voxel)))
+
+
+def sample_lod(t: float, tan_half: float, height: float, normal: np.ndarray, voxel: float,
+               lod_min: float = 0.0) -> tuple[float, float]:
+    """(lod read, footprint diameter) of a cone sample at distance t along a cone of tan(half-angle)
+    `tan_half`, `height` above the tangent plane of the surface it leaves (normal `normal`): the cone's
+    diameter 2 t tan_half (at least a finest voxel) gives lod = log2(diameter / h0), capped by
+    `footprint_cap`; `lod_min` raises the level read (the injection's), not the footprint (the step)."""
+    cone = math.log2(max(2.0 * t * tan_half, voxel) / voxel)
+    lod = min(cone, footprint_cap(height, normal, voxel))
+    return max(lod, lod_min), voxel * 2.0 ** lod
 
 
 def cascades_for(bounds_min: np.ndarray, bounds_max: np.ndarray, resolution: int, count: int,

@@ -49,13 +49,19 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip) {
 }
 
 // One cone from `origin` along unit d with tan(half-angle) `tan_half`, front to back from distance t0:
-// (radiance gathered, occlusion). The level follows the cone's diameter (vct_math.Cascades.level_of):
-// lod = log2(diameter / h0) over the whole pyramid, the cascade floor(lod) but never finer than the
-// finest holding the sample, the mip lod - cascade. `lod_min` keeps the injection off level 0.
-// The footprint also stays off the surface the cone leaves: a sample's voxel is at most
-// vct_footprint_ratio times its height above the surface's tangent plane (n, through `surface`), so a
-// trilinear lookup never reaches the surface's own voxels (the self-intersection rule near the horizon).
-uniform float vct_footprint_ratio;
+// (radiance gathered, occlusion). The level (vct_math.sample_lod mirrors it) follows the cone's diameter
+// 2 t tan_half (at least h0): lod = log2(diameter / h0) over the whole pyramid, the cascade floor(lod)
+// but never finer than the finest holding the sample, the mip lod - cascade (vct_math.Cascades.level_of).
+// `lod_min` keeps the injection off level 0.
+// The footprint cap keeps the lookup off the surface the cone leaves (plane n through `surface`): the
+// trilinear, mip-linear lookup at lod reads the 2x2x2 texels around p at levels floor(lod) and ceil(lod);
+// those of the coarser level, of edge s = h0 2^ceil(lod), reach 1.5 s from p along each axis, so
+// 1.5 s |n|_1 below p along n (|n|_1 = |n.x| + |n.y| + |n.z|: a box's extent along n per unit edge).
+// The surface's own voxels (finest, conservative: their boxes cross the plane) reach h0 |n|_1 above it.
+// The lookup stays off them while height - 1.5 s |n|_1 >= h0 |n|_1, i.e. s <= s_max =
+// (height / |n|_1 - h0) / 1.5, so lod <= lod_cap = floor(log2(s_max / h0)). Where the cone is narrower
+// than that its own width governs; where wider (a plane's diffuse cones, whose 2 tan_half >= 0.9 exceed
+// the cap's at most 2/3 of the height, all along the cone) the sample reads the capped level.
 vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3 surface, vec3 n) {
     vec4 acc = vec4(0.0);
     float t = t0;
@@ -73,9 +79,12 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
             inside = vct_cascades - 1;
             if (i == 0) break;
         }
-        float height = dot(p - surface, n);
-        float diam = max(vct_voxel, min(2.0 * t * tan_half, vct_footprint_ratio * height));
-        float lod = max(log2(diam / vct_voxel), lod_min);
+        float n1 = abs(n.x) + abs(n.y) + abs(n.z);
+        float s_max = (dot(p - surface, n) / n1 - vct_voxel) / 1.5;
+        float lod_cap = floor(log2(max(s_max, vct_voxel) / vct_voxel));
+        float lod_cone = log2(max(2.0 * t * tan_half, vct_voxel) / vct_voxel);
+        float diam = vct_voxel * exp2(min(lod_cone, lod_cap));
+        float lod = max(min(lod_cone, lod_cap), lod_min);
         int c = clamp(int(floor(lod)), inside, vct_cascades - 1);
         float mip = clamp(lod - float(c), 0.0, max_mip);
         vec4 s = vct_read(p, d, c, mip);
