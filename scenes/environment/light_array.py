@@ -246,7 +246,9 @@ def _digest_arrays(h, *arrays: np.ndarray) -> None:
 def content_digest(env: np.ndarray, placement: str, count: int) -> str:
     """Hex SHA-256 of the array's directions and powers for a map (H, W, 3): what a reference rendered
     with the array (reference.lighting = "light_array") depends on, so that the reference cache and
-    the result rows are keyed by the array itself, not by the code that places it. Made once per map,
+    the result rows are keyed by the array itself, not by the code that places it. The arrays are
+    digested in float32, the precision Mitsuba's emitters and the GPU take them in (so a last-bit
+    difference of float64 sums between two machines does not split the key). Made once per map,
     placement and count in a process (the map's bytes are hashed to find it)."""
     h = hashlib.sha256()
     _digest_arrays(h, env)
@@ -254,7 +256,7 @@ def content_digest(env: np.ndarray, placement: str, count: int) -> str:
     if key not in _DIGESTS:
         array = make(env, placement, count)
         h = hashlib.sha256()
-        _digest_arrays(h, array.directions, array.powers)
+        _digest_arrays(h, array.directions.astype(np.float32), array.powers.astype(np.float32))
         _DIGESTS[key] = h.hexdigest()
         while len(_DIGESTS) > _DIGESTS_KEPT:
             _DIGESTS.popitem(last=False)
