@@ -239,7 +239,8 @@ def reference_task(payload: dict, seed: int, expect: str, cache_dir: str | None 
     got = content_id(scene, reference_only=True)
     if got != expect:
         raise RuntimeError(f"{scene.name}: worker {info['host']} resolves the scene to other content than the "
-                           f"driver ({got} != {expect}): its map or mesh files differ")
+                           f"driver ({got} != {expect}): its map or mesh files (or the light array made from "
+                           "them) differ")
     t0 = time.perf_counter()
     with _cache_env(cache_dir):
         render = reference.render(scene, seed=int(seed), use_cache=use_cache)

@@ -8,8 +8,9 @@ Both executors use this module: the serial loop of experiments/runs/sweep.py and
 experiments/runs/dask_cluster.py (which renders the references on workers and hands them to `run_row`).
 
 Row ids are keyed by content, like the reference cache: a hash of the resolved scene (every key with
-its default filled in, `to_dict`), the bytes of a map file and of mesh files (not their paths), and
-ROW_VERSION and the reference plugin's version (`content_id`).
+its default filled in, `to_dict`), the bytes of a map file and of mesh files (not their paths), the
+light array's directions and powers when the reference is rendered with it (`reference.lighting =
+"light_array"`), and ROW_VERSION and the reference plugin's version (`content_id`).
 
 Every measurement of a row comes from one `experiments.measure.pair.measure_pair` of its images; the
 pictures and the arrays the paper's figures read (`experiments.publish.images.save_comparison`) are
@@ -77,11 +78,12 @@ def scene_content(scene, reference_only: bool = False) -> dict:
             for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):
                 h.update(np.ascontiguousarray(arr).tobytes())
             od["shape"] = {"mesh_sha256": h.hexdigest()}
+    if scene.reference.lighting == "light_array":  # the reference renders the real-time light array: by content
+        lights = scene.realtime.lights
+        d["reference"]["light_array"] = {
+            "placement": lights.placement, "count": lights.count,
+            "sha256": light_array.content_digest(scene.environment.radiance(), lights.placement, lights.count)}
     if reference_only:
-        if scene.reference.lighting == "light_array":  # the reference renders the real-time light array
-            lights = scene.realtime.lights
-            d["reference"]["light_array"] = {"placement": lights.placement, "count": lights.count,
-                                             "version": light_array.LIGHT_ARRAY_VERSION}
         for key in ("realtime", "tonemap", "name"):
             d.pop(key, None)
     return d

@@ -6,7 +6,9 @@ Location: `$IBLCHECK_CACHE`, default `~/.cache/iblcheck`; one entry per key, `<k
   environment's radiance bytes (so the file's bytes, scale and builtin parameters), its rotation,
   the camera, every object's mesh arrays and material, the reference settings (spp, seed,
   integrator as resolved, model, max_depth), the Mitsuba variant and version, and the plugin
-  version. Real-time settings and tone mapping are not in it: a LOD bias or face size hits the
+  version; with `reference.lighting = "light_array"`, the array's placement, count and a digest of
+  its directions and powers (the array itself, so a change of the placement code cannot serve a
+  stale entry). Real-time settings and tone mapping are not in it: a LOD bias or face size hits the
   same entry.
 - Writes are atomic: a temporary file in the same folder, then `os.replace`. Each entry holds a
   SHA-256 of its arrays and metadata, checked on read; a corrupt entry is reported and re-rendered.
@@ -24,7 +26,7 @@ import warnings
 
 import numpy as np
 
-from scenes.environment.light_array import LIGHT_ARRAY_VERSION
+from scenes.environment import light_array
 from scenes.model import materials
 from scenes.storage.disk_cache import CacheWarning, cache_dir, locked, write_npz
 
@@ -54,8 +56,9 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
         "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
     }
     if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
-        desc["lighting"] = [ref.lighting, scene.realtime.lights.placement, scene.realtime.lights.count,
-                            LIGHT_ARRAY_VERSION]
+        lights = scene.realtime.lights
+        desc["lighting"] = [ref.lighting, lights.placement, lights.count,
+                            light_array.content_digest(env, lights.placement, lights.count)]
     h.update(json.dumps(desc, sort_keys=True).encode())
     for obj in scene.objects:
         for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):

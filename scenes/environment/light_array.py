@@ -28,7 +28,8 @@ All math is float64 numpy; the real-time side re-sums the same texel regions on 
 
 from __future__ import annotations
 
-from collections import deque
+import hashlib
+from collections import OrderedDict, deque
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,9 +38,6 @@ from scipy.spatial import cKDTree
 from scenes.environment.directions import equirect_directions, equirect_solid_angles, luminance, normalize
 
 PLACEMENTS = ("geodesic", "median_cut")
-#: part of the cache key of references rendered with the array (reference.lighting = "light_array"):
-#: bump it when a placement's directions or regions change
-LIGHT_ARRAY_VERSION = 1
 #: subdivisions of each polyhedron offered (counts up to 10242 lights)
 MAX_SUBDIVISIONS = {"tetrahedron": 5, "octahedron": 5, "icosahedron": 5}
 MAX_MEDIAN_CUT = 4096
@@ -231,6 +229,38 @@ def make(env: np.ndarray, placement: str, count: int) -> LightArray:
     if placement == "median_cut":
         return median_cut(env, count)
     raise ValueError(f"light placement {placement!r}: one of {', '.join(PLACEMENTS)}")
+
+
+#: digests of arrays already made in this process: {(the map's SHA-256, placement, count): digest}
+_DIGESTS: OrderedDict[tuple[str, str, int], str] = OrderedDict()
+_DIGESTS_KEPT = 64
+
+
+def _digest_arrays(h, *arrays: np.ndarray) -> None:
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+
+
+def content_digest(env: np.ndarray, placement: str, count: int) -> str:
+    """Hex SHA-256 of the array's directions and powers for a map (H, W, 3): what a reference rendered
+    with the array (reference.lighting = "light_array") depends on, so that the reference cache and
+    the result rows are keyed by the array itself, not by the code that places it. The arrays are
+    digested in float32, the precision Mitsuba's emitters and the GPU take them in (so a last-bit
+    difference of float64 sums between two machines does not split the key). Made once per map,
+    placement and count in a process (the map's bytes are hashed to find it)."""
+    h = hashlib.sha256()
+    _digest_arrays(h, env)
+    key = (h.hexdigest(), placement, int(count))
+    if key not in _DIGESTS:
+        array = make(env, placement, count)
+        h = hashlib.sha256()
+        _digest_arrays(h, array.directions.astype(np.float32), array.powers.astype(np.float32))
+        _DIGESTS[key] = h.hexdigest()
+        while len(_DIGESTS) > _DIGESTS_KEPT:
+            _DIGESTS.popitem(last=False)
+    return _DIGESTS[key]
 
 
 def diffuse_irradiance(lights: LightArray, normals: np.ndarray) -> np.ndarray:

@@ -12,16 +12,20 @@ import os
 import shutil
 import subprocess
 import sys
+from collections import OrderedDict
 
 import numpy as np
 import pytest
 
+import scenes
 from experiments.cli import main as cli
 from experiments.measure.results import RESULTS, FolderBusy, ResultStore, folder_lock
 from experiments.paper import e06_hostile_cases as hostile
 from experiments.paper.e06_hostile_runs import tiny_scene
 from experiments.runs import rows as row_runner
 from experiments.runs import sweep
+from groundtruth.pathtracer import reference_cache
+from scenes.environment import light_array
 from scenes.storage import imageio
 from tests.hard.common import ROOT
 
@@ -209,3 +213,79 @@ def test_two_sweeps_at_once_write_each_row_once(files, tmp_path):
     assert any(code == 0 for code, _ in results)
     ids = [json.loads(x)["id"] for x in (out / RESULTS).read_text().splitlines()]
     assert len(ids) == len(set(ids)) == 3
+
+
+def _turn_one_direction(directions: np.ndarray) -> np.ndarray:
+    """A placement moved by a hundredth of a degree: light 0 turned about +Y."""
+    out = directions.copy()
+    c, s = np.cos(np.radians(0.01)), np.sin(np.radians(0.01))
+    x, z = out[0, 0], out[0, 2]
+    out[0, 0], out[0, 2] = c * x + s * z, -s * x + c * z
+    return out
+
+
+def _shift_one_cut(regions: list) -> list:
+    """A median cut one texel off: the first region loses its last row (or column) to nothing else;
+    the regions still tile the map because its neighbour is grown by the same texels."""
+    (r0, r1, c0, c1), *rest = regions
+    for i, (q0, q1, p0, p1) in enumerate(rest):
+        if (q0, p0, p1) == (r1, c0, c1):  # the region below, the same columns: the row moves to it
+            rest[i] = (r1 - 1, q1, p0, p1)
+            return [(r0, r1 - 1, c0, c1), *rest]
+        if (p0, q0, q1) == (c1, r0, r1):  # the region to the right, the same rows: the column moves to it
+            rest[i] = (q0, q1, c1 - 1, p1)
+            return [(r0, r1, c0, c1 - 1), *rest]
+    raise AssertionError(f"no neighbour of {regions[0]} shares a whole side")
+
+
+PERTURBATIONS = [  # (placement, count, the function of light_array replaced, the edit of its result)
+    ("geodesic", 42, "geodesic_directions", _turn_one_direction),
+    ("geodesic", 42, "region_powers", lambda p: p * np.r_[1.0 + 1e-6, np.ones(len(p) - 1)][:, None]),
+    ("median_cut", 16, "_median_cut_regions", _shift_one_cut),
+    ("median_cut", 16, "region_powers", lambda p: p[::-1].copy()),
+]
+
+
+@pytest.mark.parametrize("changed", [True, False], ids=["changed", "identical"])
+@pytest.mark.parametrize(("placement", "count", "function", "edit"), PERTURBATIONS,
+                         ids=[f"{p[0]}-{p[2]}" for p in PERTURBATIONS])
+def test_a_light_array_reference_is_keyed_by_the_array(monkeypatch, placement, count, function, edit, changed):
+    """A reference rendered with the light array (and its row) is keyed by the array's directions and
+    powers: the placement code edited to give another array (one light turned by 0.01 degree, one
+    power off by a millionth, one median cut moved by a texel, the powers in another order) changes
+    the reference cache key, the reference's id and the row id, with the placement and count as they
+    were; the same code wrapped to give the same array (the negative control) keeps all three."""
+    scene = scenes.load("builtin:sphere-diffuse").with_overrides({
+        "realtime.diffuse": "lights", "reference.lighting": "light_array",
+        "realtime.lights.placement": placement, "realtime.lights.count": count})
+    env = scene.environment.radiance()
+
+    def keys() -> tuple[str, str, str]:
+        return (reference_cache.reference_key(scene, env, 8, 0, "v", "3", 4, "direct"),
+                row_runner.content_id(scene, reference_only=True), row_runner.content_id(scene))
+
+    before = keys()
+    original = getattr(light_array, function)
+    monkeypatch.setattr(light_array, function,
+                        lambda *a, **k: edit(original(*a, **k)) if changed else original(*a, **k))
+    monkeypatch.setattr(light_array, "_DIGESTS", OrderedDict())  # the digests made before the edit
+    made = light_array.make(env, placement, count)
+    assert made.count == count and np.isfinite(made.powers).all()
+    after = keys()
+    if changed:
+        assert all(a != b for a, b in zip(before, after, strict=True)), (before, after)
+    else:
+        assert after == before
+
+
+def test_the_light_array_key_is_cheap_once_made(monkeypatch):
+    """The array behind a key is made once per map, placement and count in a process: a second key of
+    the same scene does not place the lights again (the map's bytes are hashed to find it)."""
+    env = np.full((16, 32, 3), 0.5, np.float32)
+    monkeypatch.setattr(light_array, "_DIGESTS", OrderedDict())
+    calls = []
+    original = light_array.make
+    monkeypatch.setattr(light_array, "make", lambda *a: calls.append(a) or original(*a))
+    first = light_array.content_digest(env, "geodesic", 42)
+    assert light_array.content_digest(env.copy(), "geodesic", 42) == first and len(calls) == 1
+    assert light_array.content_digest(env * 2, "geodesic", 42) != first and len(calls) == 2

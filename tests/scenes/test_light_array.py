@@ -10,7 +10,9 @@
   largest error over 20,000 random normals is 4.1% at 42, 1.03% at 162 and 0.25% at 642 lights; the
   bounds, with margin, are 5%, 1.5% and the issue's 1%.
 - Median cut weighs texels by solid angle (sin theta): on a constant map every region holds the same
-  solid angle; without sin theta the cuts would crowd the poles.
+  solid angle; without sin theta the cuts would crowd the poles. On a sky above a black ground the
+  cuts, the regions' powers and the lights' elevations are worked out by hand (bands of equal sky
+  solid angle, closed-form centroids), and a green/blue map is cut where Rec. 709 luminance says.
 """
 
 from __future__ import annotations
@@ -118,3 +120,76 @@ def test_voronoi_cells_assign_every_texel_to_its_nearest_light():
     dirs = equirect_directions(*env.shape[:2]).reshape(-1, 3)
     brute = np.argmax(dirs @ array.directions.T, axis=1)  # the definition, all pairs
     np.testing.assert_array_equal(array.texel_light.ravel(), brute)
+
+
+def _wedge_centroid_elevation(a: float, b: float, wedge: float) -> float:
+    """Elevation (radians) of the mean direction of the band of polar angle [a, b] in an azimuth wedge
+    of width `wedge`, by the closed-form integrals of (sin t cos p, cos t, sin t sin p) sin t dt dp:
+    vertical  int cos t sin t dt = (sin^2 b - sin^2 a) / 2 over the wedge's width,
+    horizontal  int sin^2 t dt = (b - a) / 2 - (sin 2b - sin 2a) / 4, times |int e^{ip} dp| = 2 sin(wedge / 2)."""
+    vertical = (np.sin(b) ** 2 - np.sin(a) ** 2) / 2.0 * wedge
+    horizontal = ((b - a) / 2.0 - (np.sin(2 * b) - np.sin(2 * a)) / 4.0) * 2.0 * np.sin(wedge / 2.0)
+    return float(np.arctan2(vertical, horizontal))
+
+
+def test_median_cut_cuts_a_sky_into_equal_solid_angles_of_sky():
+    """A map of radiance 1 above the horizon and 0 below, cut into 16 lights. Worked out by hand from
+    the cut rule (each region along its longer side on the sphere, at half its energy = L dOmega):
+    the whole map (2 pi x pi) is cut in two halves of longitude; a half (pi wide at the equator,
+    pi tall) at 60 deg, where the sky above it holds half its solid angle (cos theta = 1/2); the cap
+    (pi sin 30 deg wide, pi/3 tall) and the rest (pi sin 120 deg wide, 2 pi/3 tall) along longitude;
+    then each quarter wedge of the cap (pi/2 sin 30 deg wide, shorter than its pi/3) and of the rest
+    along latitude. So 16 rectangles: 4 wedges of 90 deg times the bands of equal sky solid angle,
+    cos theta in [1, 3/4], [3/4, 1/2], [1/2, 1/4], [1/4, 0] (the last with the black ground below),
+    each of power 2 pi / 16, each light at the sky's centroid of its band (closed form).
+    Without the sin theta of the solid angle the cut would fall at 45 deg, without the sin theta of
+    the width the cap's wedges would be cut along longitude, and the black ground would pull the last
+    band's light below the horizon if the centroid were geometric."""
+    h, w, count = 256, 512, 16
+    theta = np.arange(h) * np.pi / (h - 1)  # row r at theta = pi r / (H - 1); the band of row 127 ends at 90 deg
+    env = np.where(theta[:, None, None] < np.pi / 2, 1.0, 0.0) * np.ones((h, w, 3))
+    array = light_array.median_cut(env.astype(np.float32), count)
+    edges = np.arccos([1.0, 0.75, 0.5, 0.25, 0.0])  # the sky's bands of equal solid angle
+    row_edge = edges * (h - 1) / np.pi + 0.5  # a band's first row: the first texel centre below its edge
+    found = set()
+    for i in range(count):
+        rows, cols = np.nonzero(array.texel_light == i)
+        r0, r1, c0, c1 = rows.min(), rows.max() + 1, cols.min(), cols.max() + 1
+        assert len(rows) == (r1 - r0) * (c1 - c0), f"light {i}: its texels are no rectangle"
+        assert c1 - c0 == w // 4 and c0 % (w // 4) == 0, f"light {i}: columns {c0}..{c1} are not a quarter"
+        band = int(np.argmin(np.abs(row_edge[:4] - r0)))
+        assert abs(r0 - row_edge[band]) <= 1.0, f"light {i}: first row {r0}, expected {row_edge[band]:.1f}"
+        if band < 3:
+            assert abs(r1 - row_edge[band + 1]) <= 1.0, f"light {i}: last row {r1}, expected {row_edge[band + 1]:.1f}"
+        else:
+            assert r1 == h  # the last band holds the ground down to the pole
+        found.add((band, c0))
+        elevation = np.arcsin(np.clip(array.directions[i, 1], -1.0, 1.0))
+        want = _wedge_centroid_elevation(edges[band], edges[band + 1], np.pi / 2)
+        assert abs(elevation - want) < np.radians(1.0), f"light {i}: {np.degrees(elevation):.2f} deg, " \
+                                                       f"expected {np.degrees(want):.2f}"
+    assert len(found) == count  # every wedge and band once
+    # a cut is within half a row of its band's edge: half of (2 pi / 4) dtheta = 0.0097 sr of 0.39, 2.5%
+    np.testing.assert_allclose(array.powers, 2 * np.pi / count, rtol=0.03)
+
+
+def test_median_cut_weighs_texels_by_luminance():
+    """Left half of the map pure green, right half pure blue (radiance 1), cut once (2 lights): the
+    first cut runs along longitude at the column k where the luminance energy left of it is half the
+    total. Every column holds the same solid angle, so by hand with Rec. 709's weights (G 0.7152,
+    B 0.0722): 0.7152 k = (W / 2)(0.7152 + 0.0722) / 2, k = W (0.7874) / (4 * 0.7152) = 55.05 for
+    W = 200. The sum (or mean) of the channels would cut at 100, Rec. 601's weights at 59.7. The
+    lights' RGB powers are the regions' radiance times their solid angle, 4 pi per full map."""
+    h, w = 64, 200
+    env = np.zeros((h, w, 3), np.float32)
+    env[:, : w // 2, 1] = 1.0
+    env[:, w // 2:, 2] = 1.0
+    k_exact = w * (0.7152 + 0.0722) / (4 * 0.7152)
+    k = round(k_exact)
+    assert abs(k_exact - k) < 0.1  # the nearest column cut is unambiguous
+    array = light_array.median_cut(env, 2)
+    left = array.texel_light[0, 0]
+    np.testing.assert_array_equal(array.texel_light[:, :k], left)
+    np.testing.assert_array_equal(array.texel_light[:, k:], 1 - left)
+    np.testing.assert_allclose(array.powers[left], [0.0, 4 * np.pi * k / w, 0.0], atol=1e-9)
+    np.testing.assert_allclose(array.powers[1 - left], [0.0, 4 * np.pi * (w / 2 - k) / w, 2 * np.pi], atol=1e-9)
