@@ -2,7 +2,7 @@
 cannot mutate: each one is applied alone to a scratch copy of the working tree, the GL tests run there, and the
 mutant must make them fail ("caught"). `make shader-mutants`; not part of `make test` (it takes minutes).
 
-    python tests/mutants/shader_mutants.py [--include-golden] [--list] [NAME_SUBSTRING ...]
+    python tests/mutants/shader_mutants.py [--include-golden] [--list] [--tests PATH ...] [NAME_SUBSTRING ...]
 
 Each entry is (file, exact original snippet, replacement, description). A snippet that is not found exactly once
 in its file stops the script before anything runs (exit 2): the shader changed, so the list must be updated
@@ -11,6 +11,11 @@ with it (never silently skipped). The unmutated copy must pass the same tests fi
 By default the golden-image test (tests/realtime/test_golden.py, bit-identical images of the paper's method) is
 left out: it would catch every mutant without saying what is wrong, and the point is that the tests with an
 independent expectation catch them. `--include-golden` runs it too.
+
+Descriptions start with the technique ("irradiance map: ...", "prefiltered: ..."): the last lines count
+the caught and surviving mutants per technique (the text before the first colon). `--tests` runs other
+test paths than tests/realtime and tests/hard (a quick first pass on a technique's own tests: a mutant
+caught there is caught by the full set, a survivor must be rerun on the full set before it is called one).
 
 Exit status: 0 every mutant caught, 1 some survived, 2 the list or the baseline is broken.
 """
@@ -79,6 +84,159 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "shadow maps never shadow"),
     ("realtime/techniques/prt/prt_vertex.glsl", "int base = gl_VertexID * SH_COUNT * 3;", "int base = 0;",
      "PRT: every vertex reads the first vertex's transfer"),
+    ("realtime/techniques/prt/prt_vertex.glsl",
+     "vec3(transfer[base + 3 * k], transfer[base + 3 * k + 1], transfer[base + 3 * k + 2])",
+     "vec3(transfer[base + 3 * k + 2], transfer[base + 3 * k + 1], transfer[base + 3 * k])",
+     "PRT: the transfer's colour channels read in reverse order"),
+    ("realtime/techniques/prt/prt_vertex.glsl",
+     "vec3(transfer[base + 3 * k], transfer[base + 3 * k + 1], transfer[base + 3 * k + 2])",
+     "vec3(transfer[base + 3 * k])", "PRT: the red channel's transfer used for all three channels"),
+    ("realtime/techniques/prt/prt.py", 'data = np.ascontiguousarray(t, dtype="f4")',
+     'data = np.ascontiguousarray(t[..., ::-1], dtype="f4")',
+     "PRT: the per-vertex transfer uploaded with its channels reversed (host side)"),
+    # the irradiance map (brute-force cosine convolution)
+    ("realtime/techniques/irradiance_map/irradiance_pack.comp",
+     "packed_texels[2 * t] = texelFetch(weights, ivec2(x, y + f * source_size), 0);",
+     "packed_texels[2 * t] = vec4(normalize(texelFetch(weights, ivec2(x, y + f * source_size), 0).xyz), 1.0);",
+     "irradiance map: texel solid angles dropped (every source texel weighs the same)"),
+    ("realtime/techniques/irradiance_map/irradiance_pack.comp", "texelFetch(weights, ivec2(x, y + f * source_size), 0)",
+     "texelFetch(weights, ivec2(y, x + f * source_size), 0)",
+     "irradiance map: the weights (direction, solid angle) fetched transposed"),
+    ("realtime/techniques/irradiance_map/irradiance_pack.comp", "imageLoad(source, ivec3(x, y, f))",
+     "imageLoad(source, ivec3(source_size - 1 - x, y, f))",
+     "irradiance map: the packed radiance with x flipped on every face"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp", "return e.rgb * (PI / max(e.a, 1e-30));",
+     "return e.rgb / max(e.a, 1e-30);", "irradiance map: the normalised sum without its pi"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp",
+     "float sc = 2.0 * (float(g.x * B + b) + 0.5) / float(size) - 1.0;",
+     "float sc = 2.0 * float(g.x * B + b) / float(size) - 1.0;",
+     "irradiance map: output texel centres without +0.5 (s)"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp", "anti[b] += max(-c, 0.0) * L;",
+     "anti[b] += max(c, 0.0) * L;", "irradiance map: the antipode weighed by the cosine about n, not -n"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp", "int y_anti = face == 2 ? g.y : size - 1 - g.y;",
+     "int y_anti = face == 2 ? size - 1 - g.y : g.y;",
+     "irradiance map: the opposite faces' rows mirrored on the wrong faces"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp",
+     "ivec3(face == 2 ? size - 1 - x : x, y_anti, face + 1)", "ivec3(x, y_anti, face + 1)",
+     "irradiance map: the antipode on -Y written without mirroring x"),
+    ("realtime/techniques/irradiance_map/irradiance_convolve.comp", "int face = 2 * g.z;  // +X, +Y, +Z",
+     "int face = g.z;", "irradiance map: faces dispatched as 0, 1, 2 instead of +X, +Y, +Z"),
+    ("realtime/techniques/irradiance_map/diffuse_irradiance_map.glsl", "textureLod(irradiance_cube, n, 0.0).rgb",
+     "textureLod(irradiance_cube, vec3(n.xy, -n.z), 0.0).rgb", "irradiance map: looked up with the normal's z flipped"),
+    ("realtime/techniques/irradiance_map/diffuse_irradiance_map.glsl", "textureLod(irradiance_cube, n, 0.0).rgb",
+     "textureLod(irradiance_cube, n, 0.0).bgr", "irradiance map: red and blue swapped in the lookup"),
+    # the Phong-prefiltered chain (host: the sample set; GLSL: the estimator and the lookup)
+    ("realtime/techniques/prefiltered/prefilter.py", "math.log2((exponent + 1.0) / (2.0 * np.pi))",
+     "math.log2(exponent + 1.0)", "prefiltered: the FIS pdf without its 1 / (2 pi)"),
+    ("realtime/techniques/prefiltered/prefilter.py", "half_log2_ratio = 0.5 * (", "half_log2_ratio = (",
+     "prefiltered: the FIS level without its 0.5 (log2 of the solid-angle ratio, not of the side ratio)"),
+    ("realtime/techniques/prefiltered/prefilter.py", "omega_p = 4.0 * np.pi / (6.0 * base_size * base_size)",
+     "omega_p = 4.0 * np.pi / (base_size * base_size)",
+     "prefiltered: the base texel's solid angle without the 6 faces"),
+    ("realtime/techniques/prefiltered/prefilter.py", "-np.expm1(log_xi1 / (exponent + 1.0))",
+     "-np.expm1(log_xi1 / (exponent + 2.0))", "prefiltered: samples drawn from the lobe of exponent N + 1"),
+    ("realtime/techniques/prefiltered/prefilter.py", "phi = 2.0 * np.pi * xi2", "phi = np.pi * xi2",
+     "prefiltered: the samples' phi over only pi (half the lobe)"),
+    ("realtime/techniques/prefiltered/prefilter_phong.comp", "float sc = 2.0 * (float(g.x) + 0.5) / float(size) - 1.0;",
+     "float sc = 2.0 * float(g.x) / float(size) - 1.0;", "prefiltered: texel centres without +0.5 (s)"),
+    ("realtime/techniques/prefiltered/prefilter_phong.comp", "clamp(s.w + bias, 0.0, max_lod)",
+     "clamp(s.w - bias, 0.0, max_lod)", "prefiltered: the LOD bias with the wrong sign"),
+    ("realtime/techniques/prefiltered/prefilter_phong.comp", "vec3 t2 = vec3(b, sgn + r.y * r.y * a, -r.y);",
+     "vec3 t2 = vec3(b, sgn + r.y * r.y * a, r.y);", "prefiltered: the frame's t2 with the wrong z sign"),
+    ("realtime/techniques/prefiltered/prefilter_phong.comp", "+ (1.0 - s.z) * r;", "+ s.z * r;",
+     "prefiltered: the sample's z (stored as 1 - cos a) read as cos a"),
+    ("realtime/techniques/prefiltered/prefilter_phong.comp", "vec4(sum / float(samples), 1.0)",
+     "vec4(sum / float(samples - 1), 1.0)", "prefiltered: the sample mean divided by samples - 1"),
+    ("realtime/techniques/prefiltered/glossy_prefiltered.py", "return int(math.floor(self.lods[exponent]))",
+     "return int(math.ceil(self.lods[exponent]))",
+     "prefiltered: the first level prefiltered rounded up (the level below the LOD left unwritten)"),
+    ("realtime/techniques/prefiltered/glossy_prefiltered.glsl", "textureLod(prefiltered_cube, r, prefiltered_lod)",
+     "textureLod(prefiltered_cube, r, floor(prefiltered_lod))",
+     "prefiltered: the lookup at the integer level below the LOD (no interpolation between levels)"),
+    # the 2D environment parameterizations (dual paraboloid, sphere map)
+    ("realtime/shaders/env_map.glsl", "return vec4(p, d.z >= 0.0 ? 0.0 : 1.0, 4.0 / (q * q));",
+     "return vec4(p, d.z >= 0.0 ? 1.0 : 0.0, 4.0 / (q * q));", "paraboloid: the hemispheres' layers swapped"),
+    ("realtime/shaders/env_map.glsl", "vec2 p = d.xy / (1.0 + abs(d.z));", "vec2 p = d.xy / (1.0 + d.z);",
+     "paraboloid: the back hemisphere projected with the front's sign"),
+    ("realtime/shaders/env_map.glsl", "4.0 / (q * q)", "4.0 / q",
+     "paraboloid: dOmega/dA with (1 + r^2) instead of its square"),
+    ("realtime/shaders/env_map.glsl", "float len = length(vec3(d.xy, d.z + 1.0));",
+     "float len = length(vec3(d.xy, d.z - 1.0));", "sphere map: the pole on the wrong side (a view along +z)"),
+    ("realtime/shaders/env_map.glsl", "env_map_position(env_frame * normalize(r))",
+     "env_map_position(transpose(env_frame) * normalize(r))",
+     "sphere map: the capture frame transposed in the lookup (map -> world)"),
+    ("realtime/engine/environment_maps.py", 'prog["env_frame"].write(mat_bytes(self.frame))',
+     'prog["env_frame"].write(mat_bytes(self.frame.T))',
+     "sphere map: the capture frame uploaded transposed (host side)"),
+    ("realtime/engine/environment_maps.py", "return self.mapping.texel_directions(size) @ self.frame",
+     "return self.mapping.texel_directions(size) @ self.frame.T",
+     "sphere map: the texels' world directions with the capture frame transposed (host side: fill and SH)"),
+    ("realtime/shaders/env_map.glsl", "- 0.5 * log2(m.w)", "+ 0.5 * log2(m.w)",
+     "env map: the density's LOD correction with the wrong sign"),
+    ("realtime/shaders/env_map.glsl", "vec3(0.5 * m.xy + 0.5, m.z)", "vec3(0.5 * vec2(m.x, -m.y) + 0.5, m.z)",
+     "env map: the lookup's v flipped (rows top-down)"),
+    ("realtime/shaders/map_fill.comp", "env_lookup_uv(env, uv.x + u_shift, uv.y)",
+     "env_lookup_uv(env, uv.x - u_shift, uv.y)", "env map: the 2D fill rotates the environment the wrong way"),
+    ("realtime/shaders/map_fill.comp", "texelFetch(texel_uv, g, 0).rg", "texelFetch(texel_uv, g, 0).gr",
+     "env map: the 2D fill's u and v swapped"),
+    ("realtime/shaders/map_downsample.comp",
+     "+ imageLoad(src, s + ivec3(0, 1, 0)) + imageLoad(src, s + ivec3(1, 1, 0));",
+     "+ imageLoad(src, s + ivec3(1, 0, 0)) + imageLoad(src, s + ivec3(1, 1, 0));",
+     "env map: the 2D box filter reads one texel twice and skips another"),
+    ("realtime/shaders/map_downsample.comp", "ivec3 s = ivec3(2 * g.xy, g.z);", "ivec3 s = ivec3(2 * g.xy, 0);",
+     "paraboloid: every layer's mip level made from the first layer"),
+    ("realtime/shaders/map_sh_project.comp", "vec3 L = imageLoad(level, t).rgb * dw.w;",
+     "vec3 L = imageLoad(level, t).rgb;", "env map: SH projection without the texels' solid angles"),
+    ("realtime/shaders/map_sh_project.comp", "texelFetch(texel_dir, ivec2(t.x, t.y + t.z * size), 0)",
+     "texelFetch(texel_dir, ivec2(t.x, t.y), 0)",
+     "paraboloid: SH projection with the first layer's directions for both layers"),
+    ("realtime/engine/environment_maps.py", "return spheremap.capture_frame(forward, cam.up)",
+     "return spheremap.capture_frame(forward, cam.up).T", "sphere map: the capture frame transposed everywhere"),
+    # the light array's glossy lobe and the shadow maps' filter
+    ("realtime/techniques/lights/lights.glsl", "float norm = (phong_exponent + 1.0) / (2.0 * PI);",
+     "float norm = (phong_exponent + 2.0) / (2.0 * PI);",
+     "light array: glossy lobe normalised by (N + 2)/(2 pi) instead of the paper's (N + 1)/(2 pi)"),
+    ("realtime/techniques/lights/lights.glsl", "exp(phong_exponent * log(c))", "exp((phong_exponent + 1.0) * log(c))",
+     "light array: glossy lobe cos^(N+1) under the (N + 1)/(2 pi) normalisation"),
+    ("realtime/techniques/lights/lights.glsl", "if (c <= 0.0 || dot(shading_normal, l) <= 0.0) continue;",
+     "if (c <= 0.0) continue;", "light array: glossy lobe counts lights below the surface's horizon"),
+    ("realtime/techniques/lights/lights.glsl", "float lobe = phong_exponent == 0.0 ? 1.0 : ",
+     "float lobe = phong_exponent == 0.0 ? 0.5 : ", "light array: the uniform glossy lobe (N = 0) halved"),
+    ("realtime/techniques/shadow_maps/shadow_maps.glsl", "    return 0.25 * v;", "    return min(v, 1.0);",
+     "shadow maps: PCF lights a pixel fully when any tap is lit"),
+    # voxel cone tracing: the face a cone reads, the footprint cap, the accumulation, the injection
+    ("realtime/techniques/vct/vct_trace.glsl",
+     "(d.x > 0.0 ? vct_fetch(vct_face_nx, local, c, mip) : vct_fetch(vct_face_px, local, c, mip))",
+     "(d.x > 0.0 ? vct_fetch(vct_face_px, local, c, mip) : vct_fetch(vct_face_nx, local, c, mip))",
+     "VCT: a cone reads the +X/-X faces swapped"),
+    ("realtime/techniques/vct/vct_trace.glsl", "w.x * (d.x > 0.0 ?", "w.x * (d.x < 0.0 ?",
+     "VCT: the x sign test of the face a cone reads flipped"),
+    ("realtime/techniques/vct/vct_trace.glsl", "w.z * (d.z > 0.0 ?", "w.z * (d.z < 0.0 ?",
+     "VCT: the z sign test of the face a cone reads flipped"),
+    ("realtime/techniques/vct/vct_trace.glsl",
+     "(d.y > 0.0 ? vct_fetch(vct_face_ny, local, c, mip) : vct_fetch(vct_face_py, local, c, mip))",
+     "(d.y > 0.0 ? vct_fetch(vct_face_py, local, c, mip) : vct_fetch(vct_face_ny, local, c, mip))",
+     "VCT: a cone reads the +Y/-Y faces swapped"),
+    ("realtime/techniques/vct/vct_trace.glsl", "/ n1 - vct_voxel) / 1.5;", "/ n1 - vct_voxel) / 0.75;",
+     "VCT: footprint cap with the trilinear reach taken as 0.75 texel"),
+    ("realtime/techniques/vct/vct_trace.glsl", "float s_max = (dot(p - surface, n) / n1 - vct_voxel)",
+     "float s_max = (dot(p - surface, n) - vct_voxel)", "VCT: footprint cap ignores |n|_1 of a tilted surface"),
+    ("realtime/techniques/vct/vct_trace.glsl", "float lod = max(min(lod_cone, lod_cap), lod_min);",
+     "float lod = max(lod_cone, lod_min);", "VCT: no footprint cap on the level"),
+    ("realtime/techniques/vct/vct_trace.glsl", "float lod_cap = floor(log2(", "float lod_cap = ceil(log2(",
+     "VCT: footprint cap rounded up"),
+    ("realtime/techniques/vct/vct_trace.glsl", "max(2.0 * t * tan_half, vct_voxel)", "max(t * tan_half, vct_voxel)",
+     "VCT: the cone's radius taken for its diameter"),
+    ("realtime/techniques/vct/vct_trace.glsl", "vec3 rgb = a0 > 1e-6 ? s.rgb * (a / a0) : vec3(0.0);",
+     "vec3 rgb = s.rgb;", "VCT: radiance not rescaled with the Beer-Lambert opacity"),
+    ("realtime/techniques/vct/vct_trace.glsl", "acc.rgb += (1.0 - acc.a) * rgb;", "acc.rgb += rgb;",
+     "VCT: radiance composited without the transmittance"),
+    ("realtime/techniques/vct/vct_trace.glsl", "return vec4(E, V / 3.14159265358979323846);",
+     "return vec4(E, V / 3.0);", "VCT: visibility normalised by 3 instead of pi"),
+    ("realtime/techniques/vct/vct_inject.comp", "* albedo / 3.14159265358979323846 * done_E[k];",
+     "* albedo * done_E[k];", "VCT: injection without 1/pi"),
+    ("realtime/techniques/vct/vct_inject.comp", "L = (W * NORMAL_SCALE / W_max) * albedo",
+     "L = (W * NORMAL_SCALE) * albedo", "VCT: injection without the W_max normalisation"),
 ]
 
 GL_TESTS = ["tests/realtime", "tests/hard"]
@@ -107,8 +265,15 @@ def check_snippets(mutants) -> list[str]:
     return problems
 
 
-def run_tests(copy: Path, include_golden: bool, stop_at_first: bool) -> tuple[int, str, float]:
-    args = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "gl and not slow", *GL_TESTS]
+def technique(desc: str) -> str:
+    """The group of a mutant: its description up to the first colon ("other" without one)."""
+    head, colon, _ = desc.partition(":")
+    return head.strip() if colon else "other"
+
+
+def run_tests(copy: Path, include_golden: bool, stop_at_first: bool,
+              tests: list[str] = GL_TESTS) -> tuple[int, str, float]:
+    args = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "gl and not slow", *tests]
     if not include_golden:
         args.append(f"--ignore={GOLDEN}")
     if stop_at_first:
@@ -127,6 +292,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("names", nargs="*", help="run only mutants whose description contains one of these")
     parser.add_argument("--include-golden", action="store_true", help="also run the golden-image test")
     parser.add_argument("--list", action="store_true", help="list the mutants and check their snippets")
+    parser.add_argument("--tests", nargs="+", default=GL_TESTS, metavar="PATH",
+                        help="test paths to run instead of tests/realtime and tests/hard")
     args = parser.parse_args(argv)
     mutants = [m for m in MUTANTS if not args.names or any(n in m[3] for n in args.names)]
     problems = check_snippets(mutants)
@@ -147,7 +314,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"error: the copy's tests would import realtime from {where.stdout.strip() or where.stderr}",
                   file=sys.stderr)
             return 2
-        code, summary, secs = run_tests(copy, args.include_golden, stop_at_first=False)
+        code, summary, secs = run_tests(copy, args.include_golden, stop_at_first=False, tests=args.tests)
         print(f"baseline (no mutant): {summary} [{secs:.0f} s]")
         if code != 0:
             print("error: the unmutated code fails these tests; fix that first", file=sys.stderr)
@@ -158,7 +325,7 @@ def main(argv: list[str] | None = None) -> int:
             original = path.read_text()
             path.write_text(original.replace(old, new))
             try:
-                code, summary, secs = run_tests(copy, args.include_golden, stop_at_first=True)
+                code, summary, secs = run_tests(copy, args.include_golden, stop_at_first=True, tests=args.tests)
             finally:
                 path.write_text(original)
             verdict = "caught" if code == 1 else "SURVIVED" if code == 0 else f"error (pytest exit {code})"
@@ -166,6 +333,11 @@ def main(argv: list[str] | None = None) -> int:
                 survived.append(desc)
             print(f"{verdict:>9}  {desc}  [{file}; {secs:.0f} s]\n           {summary}")
         print(f"\n{len(mutants) - len(survived)} of {len(mutants)} shader mutants caught")
+        groups = sorted({technique(m[3]) for m in mutants})
+        for group in groups:
+            total = sum(technique(m[3]) == group for m in mutants)
+            lost = sum(technique(desc) == group for desc in survived)
+            print(f"  {group}: {total - lost} of {total} caught" + (f", {lost} survived" if lost else ""))
         return 1 if survived else 0
 
 

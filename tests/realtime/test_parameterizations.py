@@ -12,7 +12,8 @@ Independent expectations:
   texel at the host's LOD (read back by storing each level's index in the level itself);
 - the sphere map made for the render view matches the cube map on a mirror sphere away from its rim;
 - a sphere map captured off-axis (a frame that is not its own transpose, written by hand) holds a marked
-  direction at the texel the mirror ball formula gives, and lights the mirror sphere where the reflection says;
+  direction at the texel the mirror ball formula gives; one captured along an oblique view matches the
+  analytic reflections away from its rim;
 - per-vertex reflection vectors on a coarse sphere err more than per-pixel ones.
 """
 
@@ -194,23 +195,6 @@ def test_off_axis_sphere_map_holds_the_mark_where_the_mirror_ball_puts_it(tmp_pa
     assert np.linalg.norm(got - want) < 0.75, (got, want, wrong)
 
 
-def test_off_axis_sphere_map_lights_the_mirror_sphere_where_the_reflection_says(tmp_path):
-    """A mirror sphere under a sphere map captured off-axis: the mark lights the pixel the analytic
-    reflection predicts (the fill and the GLSL lookup must both use the frame, neither its inverse).
-    With the lookup's frame inverted the mark would show at the reflection (F F) MARK = (0.8, 0.6, 0)."""
-    path = tmp_path / "mark.exr"
-    envmap.write(path, blob_environment(MARK))
-    scene = small("builtin:sphere-phong", **{"environment.map": str(path), "realtime.parameterization": "sphere_map",
-                                              "realtime.sphere_map.capture": OFF_AXIS, "realtime.base_size": 64,
-                                              "realtime.face_size": 64, "objects.0.material.exponent": 1e6})
-    r = realtime.render(scene)
-    refl, interior = reflections(scene)
-    sel = interior & r.mask
-    want = weighted_centroid(envmap.lookup(scene.environment.radiance(), refl), sel)
-    got = weighted_centroid(r.rgb, sel)
-    assert np.linalg.norm(got - want) < 0.75, (got, want)
-
-
 def test_sphere_map_made_for_the_render_view_matches_the_cube_away_from_its_rim():
     common = {"realtime.base_size": 128, "realtime.face_size": 128, "objects.0.material.exponent": 1e6}
     cube = realtime.render(small("builtin:sphere-phong", **common))
@@ -232,6 +216,38 @@ def test_sphere_map_made_for_the_render_view_matches_the_cube_away_from_its_rim(
     fixed = realtime.render(small("builtin:sphere-phong", **common, **{
         "realtime.parameterization": "sphere_map", "realtime.sphere_map.capture": list(view)}))
     np.testing.assert_array_equal(fixed.rgb, smap.rgb)
+
+
+def test_sphere_map_captured_along_an_oblique_view_matches_the_analytic_reflection():
+    """A sphere map captured along a direction c tilted ~45 degrees off the render view (neither an axis
+    nor the camera's own view, whose frames are symmetric matrices: a transposed frame would go unseen)
+    still shows every mirror reflection r of the render: away from the map's rim (r within 120 degrees of
+    -c), the image is the Mitsuba-convention lookup of the map at the analytic r (median 0.2 % measured,
+    the same bound as the camera-captured map above). Negative control: a frame R used transposed, in the
+    lookup (reads R^T R^T r) or in the texels' directions (R R r), moves the image by ~70 %."""
+    capture = np.array([0.6, 0.35, -0.7])
+    capture /= np.linalg.norm(capture)
+    scene = small("builtin:sphere-phong", **{"realtime.base_size": 128, "realtime.face_size": 128,
+                                              "objects.0.material.exponent": 1e6,
+                                              "realtime.parameterization": "sphere_map",
+                                              "realtime.sphere_map.capture": list(capture)})
+    r = realtime.render(scene)
+    refl, interior = reflections(scene)
+    sel = interior & r.mask & (refl @ capture < math.cos(math.radians(60)))
+    assert sel.sum() > 1000
+    env = scene.environment.radiance()
+    expected = envmap.lookup(env, refl)
+
+    def median_rel(img: np.ndarray) -> float:
+        return float(np.median(np.abs(img[sel] - expected[sel]).mean(-1) / (expected[sel].mean(-1) + 1e-3)))
+
+    assert median_rel(r.rgb) < 0.03
+    # gluLookAt's eye space by hand (rows: right, true up, -c): the world -> map rotation R
+    right = np.cross(capture, scene.camera.up)
+    right /= np.linalg.norm(right)
+    frame = np.stack([right, np.cross(right, capture), -capture])
+    for wrong in (refl @ frame @ frame, refl @ frame.T @ frame.T):  # rows: R^T R^T r, R R r
+        assert median_rel(envmap.lookup(env, wrong)) > 10 * 0.03
 
 
 def test_sphere_map_seen_from_behind_puts_its_singularity_on_the_sphere():
