@@ -12,6 +12,7 @@ capture frame (a 45 degree turn, written by hand) placing world directions at th
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -248,3 +249,102 @@ def test_off_axis_capture_puts_world_directions_where_the_mirror_ball_says(world
     _, row, col = spheremap.direction_to_texel(frame @ d, size)
     hand = (min(int((want[1] + 1) / 2 * size), size - 1), min(int((want[0] + 1) / 2 * size), size - 1))
     assert (int(row), int(col)) == hand
+
+
+# Points beyond the sphere map's disc (rho in (1, 2)) and, by hand, the direction each holds: the great
+# circle through -z continued past it, i.e. the direction at rho' = 2 - rho on the opposite azimuth. A
+# direction at angle theta from +z on azimuth phi sits at rho = sin(theta / 2); so (1.5, 0) holds the
+# direction 2 asin(0.5) = 60 degrees from +z towards -x, (-sin 60, 0, cos 60).
+BEYOND_THE_RIM = [
+    ((1.5, 0.0), (-math.sqrt(3.0) / 2.0, 0.0, 0.5)),
+    ((0.0, -1.9), (0.0, 2.0 * math.sqrt(0.99) * 0.1, 1.0 - 2.0 * 0.01)),  # rho' = 0.1 towards +y
+    ((0.9, 1.2), (-2.0 * math.sqrt(0.75) * 0.3, -2.0 * math.sqrt(0.75) * 0.4, 0.5)),  # rho 1.5, rho' 0.5
+    ((-1.2, 0.5), (2.0 * math.sqrt(1 - 0.49) * 0.7 * 12 / 13, -2.0 * math.sqrt(1 - 0.49) * 0.7 * 5 / 13,
+                   1.0 - 2.0 * 0.49)),  # rho 1.3 on the azimuth (-12, 5) / 13, rho' 0.7 on (12, -5) / 13
+]
+
+
+@pytest.mark.parametrize(("position", "want"), BEYOND_THE_RIM)
+def test_sphere_map_beyond_the_rim_holds_the_great_circle_past_minus_z(position, want):
+    """A texel beyond the disc (which the box chain and bilinear lookups at the rim read) holds the direction
+    on the same great circle past -z: rho' = 2 - rho on the opposite azimuth (module docstring). Expected
+    values by hand from rho = sin(theta / 2). Negative controls: the direction without the continuation
+    (every point beyond the rim clamped onto it: -z) and the one on the same azimuth are both far from it."""
+    x, y = position
+    d = spheremap.position_to_direction(x, y)
+    np.testing.assert_allclose(d, want, atol=1e-12)
+    np.testing.assert_allclose(np.linalg.norm(want), 1.0, atol=1e-12)
+    # on the great circle through +z, -z and the point's azimuth, past -z: on the far side of the axis
+    assert abs(d[0] * y - d[1] * x) < 1e-12 and d[0] * x + d[1] * y < 0
+    assert np.linalg.norm(d - [0.0, 0.0, -1.0]) > 0.5
+    same_azimuth = np.array(want) * [-1.0, -1.0, 1.0]
+    assert np.linalg.norm(d - same_azimuth) > 0.3
+
+
+def test_sphere_map_centre_is_the_viewer_and_the_whole_rim_minus_z():
+    """The map's landmarks (module docstring): its centre holds the direction back at the viewer, +z, and
+    every point of the rim (rho = 1, here at 50 azimuths, where x^2 + y^2 may round just above 1) the
+    single direction -z; finite, and with no floating-point warning (the centre is no division by 0)."""
+    phi = np.linspace(0.0, 2.0 * math.pi, 50)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        centre = spheremap.position_to_direction(0.0, 0.0)
+        rim = spheremap.position_to_direction(np.cos(phi), np.sin(phi))
+    np.testing.assert_array_equal(centre, [0.0, 0.0, 1.0])
+    assert np.all(np.isfinite(rim))
+    np.testing.assert_allclose(rim, np.broadcast_to([0.0, 0.0, -1.0], rim.shape), atol=1e-7)
+
+
+@pytest.mark.parametrize(("x_shape", "y_shape"), [((3,), ()), ((), (2, 3)), ((2, 1), (1, 3)), ((4,), (4,))])
+def test_sphere_map_density_broadcasts_its_positions(x_shape, y_shape):
+    """dOmega/dA of the sphere map is 4 at every plane position (equal area), one value per position of
+    x and y broadcast together, as numpy broadcasts them (the dual paraboloid's density does the same)."""
+    x, y = np.full(x_shape, 0.25), np.full(y_shape, -0.5)
+    want = np.broadcast_shapes(x_shape, y_shape)
+    got = spheremap.density(x, y)
+    assert got.shape == want == paraboloid.density(x, y).shape
+    np.testing.assert_array_equal(got, 4.0)
+
+
+AXES = [(1.0, 0.0, 0.0), (-1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, 1.0), (0.0, 0.0, -1.0)]
+
+
+@pytest.mark.parametrize("forward", AXES)
+@pytest.mark.parametrize("k", [1.0, -1.0, 3.0])
+def test_capture_frame_with_up_parallel_to_forward_is_a_rotation(forward, k):
+    """An up parallel to the view (along every axis, either sense, any length) is replaced by the world axis
+    least aligned with the view: the frame is still a proper rotation whose back row is -forward and whose
+    true up is a world axis perpendicular to it (the first such axis, x unless the view is along x)."""
+    f = np.asarray(forward)
+    frame = spheremap.capture_frame(f, k * f)
+    np.testing.assert_allclose(frame @ frame.T, np.eye(3), atol=1e-15)
+    assert np.linalg.det(frame) == pytest.approx(1.0, abs=1e-15)
+    np.testing.assert_allclose(frame[2], -f, atol=1e-15)
+    want_up = np.eye(3)[1 if f[0] != 0 else 0]
+    np.testing.assert_allclose(frame[1], want_up, atol=1e-15)
+
+
+# a view along -z: an up turned by angle a from the view towards +y, (0, sin a, -cos a) (unnormalised below)
+IDENTITY_FRAME = np.eye(3)  # up kept: right = forward x up = +x, true up +y, back +z
+REPLACED_FRAME = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])  # up replaced by the x axis
+TIE = 1.0000000000005e-06  # |forward x up| = 1e-6 |up| to the last bit for the up (0, TIE, -1)
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.01, 100.0])
+def test_capture_frame_parallel_test_is_relative_to_up(scale):
+    """Whether an up counts as parallel to the view (then replaced) depends on its angle to the view, not on
+    its length: |forward x up| < 1e-6 |up|, strictly. By hand for a view along -z: an up 1e-5 rad off the
+    view is kept at every length (the identity frame), one exactly along it is replaced (x axis up), and
+    one exactly at the tolerance is kept (the comparison is strict); the two frames differ."""
+    forward = np.array([0.0, 0.0, -1.0])
+    assert np.linalg.norm(np.cross(forward, [0.0, TIE, -1.0])) == 1e-6 * np.linalg.norm([0.0, TIE, -1.0])
+    kept = spheremap.capture_frame(forward, scale * np.array([0.0, math.sin(1e-5), -math.cos(1e-5)]))
+    np.testing.assert_allclose(kept, IDENTITY_FRAME, atol=1e-12)
+    replaced = spheremap.capture_frame(forward, scale * np.array([0.0, 0.0, -1.0]))
+    np.testing.assert_allclose(replaced, REPLACED_FRAME, atol=1e-15)
+    assert np.abs(IDENTITY_FRAME - REPLACED_FRAME).max() > 0.5
+    if scale == 1.0:  # scaling the tie would round it off the boundary
+        np.testing.assert_allclose(spheremap.capture_frame(forward, [0.0, TIE, -1.0]), IDENTITY_FRAME, atol=1e-12)
+    # just inside the tolerance, every length of the same up gives the same frame
+    near = np.array([0.0, 5e-7, -1.0])
+    np.testing.assert_allclose(spheremap.capture_frame(forward, scale * near), REPLACED_FRAME, atol=1e-15)
