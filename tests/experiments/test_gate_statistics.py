@@ -129,3 +129,75 @@ def test_a_noise_free_reference_passes_an_unchanged_image_and_fails_any_fall(tmp
     assert d.tolerance == pytest.approx(10 * math.log10(1 + 2 * s / 1e-3), rel=1e-9)
     assert not d.failed
     assert compare(tmp_path, record(psnr=29.999, floor=100.0), base, {})["psnr"].failed
+
+
+# --------------------------------------------------------------------------- unknown inputs and the defaults
+
+
+@pytest.mark.parametrize(("base_se", "new_se"), [(None, 4e-5), (4e-5, None)])
+def test_an_unknown_standard_error_counts_as_zero(base_se, new_se):
+    """A run without a standard error (None: too few pixels to estimate it) adds nothing to the combined
+    one. By hand, different references with equal floors and M_base = 1e-3: s = 4e-5, z s = 8e-5, a PSNR
+    tolerance of 10 log10(1.08) = 0.3342376 dB; SSIM/FLIP with the other run's se 0.003: 2 * 0.003 =
+    0.006. Negative control: counting the missing one as 1 would give tolerances of about 33 dB and 2."""
+    base = {"psnr": 30.0, "noise_floor_psnr": 40.0, "pixels": 10000, "mse_se": base_se}
+    new = {"psnr": 29.0, "noise_floor_psnr": 40.0, "pixels": 10000, "mse_se": new_se}
+    assert gate_statistics.psnr_tolerance_db(base, new, same_reference=False) == pytest.approx(0.3342376, abs=1e-7)
+    assert 10 * math.log10(1 + 2 * math.sqrt(1 + 4e-5**2) / 1e-3) > 30.0
+    metric_se = (None, 0.003) if base_se is None else (0.003, None)
+    assert gate_statistics.metric_tolerance(*metric_se) == pytest.approx(0.006, abs=1e-15)
+
+
+def test_metric_tolerance_has_no_shift_unless_given():
+    """Without a shift the SSIM/FLIP tolerance is z sqrt(se_base^2 + se_new^2) alone: 2 * sqrt(0.003^2 +
+    0.004^2) = 0.01 (a 3-4-5 triangle); a shift of 0.002 adds to it: 0.012."""
+    assert gate_statistics.metric_tolerance(0.003, 0.004) == pytest.approx(0.01, abs=1e-15)
+    assert gate_statistics.metric_tolerance(0.003, 0.004, shift=0.002) == pytest.approx(0.012, abs=1e-15)
+
+
+def test_psnr_tolerance_is_negative_with_a_cleaner_reference():
+    """A new reference cleaner than the baseline's (floor 30 -> 40 dB: s2 1e-3 -> 1e-4) is expected to raise
+    the PSNR, so the tolerance is negative. By hand with M_base = 1e-2 (20 dB), mse_se 3e-5 and 4e-5
+    (s = 5e-5, z s = 1e-4): 1 + (1e-4 - 9e-4) / 1e-2 = 0.92, 10 log10 0.92 = -0.3621217 dB. A PSNR rise of
+    0.3 dB, short of what the cleaner reference alone explains, fails; one of 0.4 dB passes."""
+    base = {"psnr": 20.0, "noise_floor_psnr": 30.0, "pixels": 10000, "mse_se": 3e-5}
+    new = {"psnr": 20.3, "noise_floor_psnr": 40.0, "pixels": 10000, "mse_se": 4e-5}
+    tolerance = gate_statistics.psnr_tolerance_db(base, new, same_reference=False)
+    assert tolerance == pytest.approx(-0.3621217, abs=1e-7)
+    assert gate_statistics.worsened_beyond(20.0, 20.3, -1, tolerance)
+    assert not gate_statistics.worsened_beyond(20.0, 20.4, -1, tolerance)
+
+
+def test_psnr_tolerance_of_a_single_covered_pixel():
+    """Same reference, N = 1 covered pixel in both runs (the standard error divides by sqrt(1)): by hand with
+    M_base = M_new = 1e-2 (20 dB) and sigma = 0.01 (floor 40 dB): s = 2 * 0.01 * (0.1 + 0.1) / 1 = 4e-3,
+    tolerance 10 log10(1 + 8e-3 / 1e-2) = 10 log10 1.8 = 2.5527251 dB (N = 2 would give 1.9470 dB)."""
+    run = {"psnr": 20.0, "noise_floor_psnr": 40.0, "pixels": 1}
+    assert gate_statistics.psnr_tolerance_db(run, dict(run), same_reference=True) == pytest.approx(2.5527251, abs=1e-7)
+    assert 10 * math.log10(1 + 8e-3 / math.sqrt(2) / 1e-2) < 2.0
+
+
+@pytest.mark.parametrize(("metric", "base", "new", "want"), [
+    # FLIP rises with noise (slopes 10 and 30, mean 20): s2 1e-4 -> 10^-3.4 = 3.981072e-4 explains a rise of
+    # 20 * 2.981072e-4 = 0.005962143
+    ("flip", {"flip_noise_slope": 10.0, "noise_floor_psnr": 40.0},
+     {"flip_noise_slope": 30.0, "noise_floor_psnr": 34.0}, 0.005962143),
+    # only one run measured a slope: that slope alone
+    ("flip", {"noise_floor_psnr": 40.0}, {"flip_noise_slope": 20.0, "noise_floor_psnr": 34.0}, 0.005962143),
+    # SSIM falls with noise (negative slope): the same fall, a worsening of the same size
+    ("ssim", {"ssim_noise_slope": -20.0, "noise_floor_psnr": 40.0},
+     {"ssim_noise_slope": -20.0, "noise_floor_psnr": 34.0}, 0.005962143),
+    # a cleaner new reference: FLIP expected to fall, no widening (never narrowed either)
+    ("flip", {"flip_noise_slope": 20.0, "noise_floor_psnr": 34.0},
+     {"flip_noise_slope": 20.0, "noise_floor_psnr": 40.0}, 0.0),
+    # no slope measured, or either floor unknown: 0
+    ("flip", {"noise_floor_psnr": 40.0}, {"noise_floor_psnr": 34.0}, 0.0),
+    ("flip", {"flip_noise_slope": 20.0, "noise_floor_psnr": None},
+     {"flip_noise_slope": 20.0, "noise_floor_psnr": 34.0}, 0.0),
+    ("ssim", {"ssim_noise_slope": -20.0, "noise_floor_psnr": 40.0}, {"ssim_noise_slope": -20.0}, 0.0),
+])
+def test_noise_shift_by_hand(metric, base, new, want):
+    """The worsening a noisier new reference explains: mean slope times the change of noise variance, in the
+    metric's worse direction (FLIP up, SSIM down), never negative, and 0 without a slope or with either
+    floor unknown. Expected values by hand (beside each case)."""
+    assert gate_statistics.noise_shift(metric, base, new) == pytest.approx(want, abs=1e-9)
