@@ -239,3 +239,18 @@ def test_diffuse_cones_leaving_a_plane_read_the_capped_level(count):
             assert narrow <= cap
             narrower_somewhere |= narrow < cap
     assert narrower_somewhere
+
+
+def test_level_selection_outside_the_cascades_and_beyond_the_coarsest_mip():
+    """By hand for 3 cascades of 32^3 voxels (levels 32, 16, ..., 1: mips 0 to 5) about the origin, finest
+    half extent 1: a point outside every cascade (4.5 > 4 (1 - 1/32)) has no level, (-1, 0.0), as
+    cascade_of says -1; a cone 2^10 finest voxels wide (lod 10) reads the outermost cascade (2) at its
+    coarsest mip, 5 (a single voxel), not the lod - cascade = 8 that no mip holds."""
+    g = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 3)
+    h = g.voxel_size
+    outside = np.array([4.5, 0.0, 0.0])
+    assert g.cascade_of(outside) == -1
+    assert g.level_of(outside, h) == (-1, 0.0)
+    assert g.level_of(outside, 8 * h) == (-1, 0.0)
+    assert g.levels == 6
+    assert g.level_of(np.zeros(3), 2.0**10 * h) == (2, 5.0)
