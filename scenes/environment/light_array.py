@@ -9,11 +9,11 @@ its own region of the sphere, so the lights' powers sum to the map's integral fo
   spherical Voronoi cell: the map's texels nearer to it (larger dot product) than to any other light.
 - `median_cut` (Debevec 2005, "A median cut algorithm for light probe sampling"): the lat-long map is
   cut recursively, each region along its longer side (the width measured on the sphere, i.e. times
-  sin(theta) at the region's middle), into two halves of equal energy, until there are `count` = 2^k
-  regions (a region cut down to a single texel, e.g. a sun, stays whole and others are cut instead);
-  each light sits at its region's energy centroid. The energy of a texel is its luminance times its
-  solid angle: without the sin(theta) of the solid angle the cuts crowd the poles (a known
-  bug class in lat-long code).
+  sin(theta) at the region's middle; along longitude when the two are equal), into two halves of equal
+  energy, until there are `count` = 2^k regions (a region cut down to a single texel, e.g. a sun, stays
+  whole and others are cut instead); each light sits at its region's energy centroid. The energy of a
+  texel is its luminance times its solid angle: without the sin(theta) of the solid angle the cuts
+  crowd the poles (a known bug class in lat-long code).
 
 Units: a light's `power` (RGB) is sum over its texels of L * dOmega (W m^-2 sr^-1 * sr = W m^-2): the
 irradiance it delivers to a surface facing it, i.e. Mitsuba's `directional` emitter's `irradiance`.

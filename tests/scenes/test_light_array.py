@@ -193,3 +193,95 @@ def test_median_cut_weighs_texels_by_luminance():
     np.testing.assert_array_equal(array.texel_light[:, k:], 1 - left)
     np.testing.assert_allclose(array.powers[left], [0.0, 4 * np.pi * k / w, 0.0], atol=1e-9)
     np.testing.assert_allclose(array.powers[1 - left], [0.0, 4 * np.pi * (w / 2 - k) / w, 2 * np.pi], atol=1e-9)
+
+
+@pytest.mark.parametrize(("h", "w"), [(2, 1), (2, 4), (8, 1), (8, 2), (4, 4)])
+def test_median_cut_with_as_many_lights_as_texels_gives_each_texel_its_own(h, w):
+    """A map of h x w texels cut into h w lights (a power of two): every region is a single texel, whatever
+    the order of the cuts (a region of two texels along the cut side must still be cut)."""
+    regions = light_array._median_cut_regions(equirect_solid_angles(h, w), h * w)
+    assert sorted(regions) == [(r, r + 1, c, c + 1) for r in range(h) for c in range(w)]
+
+
+# Uniform maps (energy = solid angle), cut by hand. Rows sit at theta = pi r / (H - 1); a region's width on
+# the sphere is its share of 2 pi times sin(theta) at its middle row, its height its rows times pi / (H - 1).
+MEDIAN_CUT_BY_HAND = [
+    # 3 x 4, 2 lights: the map is 2 pi wide at the equator and 3 pi / 2 tall: cut along longitude, in halves
+    (3, 4, 2, [(0, 3, 0, 2), (0, 3, 2, 4)]),
+    # 4 x 4, 8 lights. Row bands (1 - cos 30, cos 30, cos 30, 1 - cos 30) x 2 pi / 4 per texel. The map (2 pi
+    # by 4 pi / 3) in longitude halves; a half (pi wide at the equator, 4 pi / 3 tall) at row 2, where half
+    # its energy lies; a quarter (rows 0-1: pi / 2 wide at 30 degrees, 2 pi / 3 tall) along latitude again,
+    # into single rows. Without sin(theta), or at another row's theta, the quarters would be cut in columns.
+    (4, 4, 8, [(r, r + 1, c, c + 2) for r in range(4) for c in (0, 2)]),
+    # 2 x 4, 4 lights: two polar rows, each band of pi / 2 holding half the sphere. Whichever side goes
+    # first, the result is the four half-rows (a single row can only be cut in columns).
+    (2, 4, 4, [(0, 1, 0, 2), (0, 1, 2, 4), (1, 2, 0, 2), (1, 2, 2, 4)]),
+    # 8 x 2, 8 lights. Row bands (0.0251, 0.1931, 0.3480, 0.4339, 0.4339, 0.3480, 0.1931, 0.0251) (sum 2).
+    # The map (2 pi by 8 pi / 7) in its two columns; a column (pi by 8 pi / 7) at row 4 (half: 1.0); a
+    # quarter, rows 0-3 (one column: only latitude cuts), nearest its half 0.5 after row 3 (0.566) rather
+    # than row 2 (0.218); rows 4-7 likewise before row 5.
+    (8, 2, 8, [(r0, r1, c, c + 1) for r0, r1 in ((0, 3), (3, 4), (4, 5), (5, 8)) for c in (0, 1)]),
+]
+
+
+@pytest.mark.parametrize(("h", "w", "count", "want"), MEDIAN_CUT_BY_HAND)
+def test_median_cut_cuts_along_the_longer_side_on_the_sphere(h, w, count, want):
+    """Median cut of small uniform maps against the cuts worked out by hand (beside each case): each region
+    is cut along its longer side measured on the sphere, at the cut nearest half its energy."""
+    assert sorted(light_array._median_cut_regions(equirect_solid_angles(h, w), count)) == sorted(want)
+
+
+def test_median_cut_cuts_equal_sides_along_longitude():
+    """A region as wide as it is tall on the sphere is cut along longitude (into columns): the 2 x 2 map
+    (two polar rows) is 2 pi wide at its middle, the equator, and 2 pi / (2 - 1) = 2 pi tall. Cut into
+    columns its halves are two meridian strips, cut into rows they would be the two polar bands."""
+    regions = light_array._median_cut_regions(equirect_solid_angles(2, 2), 2)
+    assert sorted(regions) == [(0, 2, 0, 1), (0, 2, 1, 2)]
+
+
+@pytest.mark.parametrize("where", ["first column", "random"])
+def test_median_cut_regions_tile_the_map(where):
+    """The regions are non-empty rectangles inside the map that cover every texel exactly once: on a black
+    map with a single bright texel in the first column (every cut of the first region leaves the sun on
+    the same side, none is nearer half its energy than the first one) and on a random map."""
+    h, w, count = 8, 16, 8
+    if where == "first column":
+        energy = np.zeros((h, w))
+        energy[3, 0] = 1.0
+    else:
+        energy = np.random.default_rng(5).random((h, w))
+    cover = np.zeros((h, w), int)
+    regions = light_array._median_cut_regions(energy, count)
+    assert len(regions) == count
+    for r0, r1, c0, c1 in regions:
+        assert 0 <= r0 < r1 <= h and 0 <= c0 < c1 <= w, (r0, r1, c0, c1)
+        cover[r0:r1, c0:c1] += 1
+    np.testing.assert_array_equal(cover, 1)
+
+
+def test_median_cut_of_a_black_map_cuts_in_the_middle_and_lights_the_geometric_centres():
+    """A black map (no energy to balance) is cut in the middle of each region, and each light sits at its
+    region's geometric centre (the solid-angle centroid). By hand for 16 x 32 and 4 lights: the map in
+    longitude halves at column 16, each half (pi by 16 pi / 15) at row 8, so quadrants of a hemisphere by a
+    half-turn of azimuth, rows 0-7 the bands down to 90 degrees. Their centroid: in the middle of the
+    half's azimuths, at an elevation of +-45 degrees by the closed form (within the texel quadrature's
+    0.2 degrees). The middle texel instead (row 4, column 8) would sit 42 degrees up and 5.6 degrees off
+    in azimuth (half a texel)."""
+    h, w = 16, 32
+    array = light_array.median_cut(np.zeros((h, w, 3), np.float32), 4)
+    quadrants = {(int(array.texel_light[r, c]), r // 8, c // 16) for r in range(h) for c in range(w)}
+    assert len(quadrants) == 4 and len({q[0] for q in quadrants}) == 4  # one light per quadrant, each whole
+    want = _wedge_centroid_elevation(0.0, np.pi / 2, np.pi)
+    assert want == pytest.approx(np.pi / 4, abs=1e-12)
+    dirs = equirect_directions(h, w)
+    for light, top, right in quadrants:
+        d = array.directions[light]
+        elevation = np.arcsin(np.clip(d[1], -1.0, 1.0))
+        assert elevation == pytest.approx(want if top == 0 else -want, abs=np.radians(0.25))
+        # the azimuth in the middle of the half's columns: along the sum of its directions, made horizontal
+        middle = dirs[:, 16 * right:16 * right + 16].sum(axis=(0, 1)) * [1.0, 0.0, 1.0]
+        horizontal = d * [1.0, 0.0, 1.0]
+        cos = np.dot(horizontal, middle) / np.linalg.norm(horizontal) / np.linalg.norm(middle)
+        assert cos == pytest.approx(1.0, abs=1e-12)
+    assert np.cos(2 * np.pi / 64) < 1.0 - 1e-3  # half a texel of azimuth is far beyond that tolerance
+    np.testing.assert_array_equal(array.powers, 0.0)
