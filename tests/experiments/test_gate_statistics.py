@@ -12,8 +12,10 @@ import json
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
+from experiments.measure import metrics
 from experiments.runs import gate, gate_statistics
 
 TINY = 2.0**-30  # far above float rounding at these magnitudes, far below any tolerance in the cases
@@ -201,3 +203,145 @@ def test_noise_shift_by_hand(metric, base, new, want):
     metric's worse direction (FLIP up, SSIM down), never negative, and 0 without a slope or with either
     floor unknown. Expected values by hand (beside each case)."""
     assert gate_statistics.noise_shift(metric, base, new) == pytest.approx(want, abs=1e-9)
+
+
+# --------------------------------------------------------------------------- block_se and metric_noise by hand
+
+NOISE_KEYS = {"mse_se", "ssim_se", "flip_se", "ssim_noise_slope", "flip_noise_slope"}
+
+
+def test_block_se_of_two_tiles_by_hand():
+    """Two sampling units are enough for a spread. Tiles of 2 x 2 (a 2 x 4 map) with sums S = (4, 0),
+    counts 4 and 4: D = 0.5, S - c D = (2, -2), se = sqrt(2 / 1 * 8) / 8 = 0.5."""
+    diff = np.array([[1.0, 1.0, 0.0, 0.0], [1.0, 1.0, 0.0, 0.0]])
+    assert gate_statistics.block_se(diff, np.ones((2, 4), bool), block=2) == pytest.approx(0.5, abs=1e-15)
+    first_tile = np.zeros((2, 4), bool)
+    first_tile[:, :2] = True
+    assert gate_statistics.block_se(diff, first_tile, block=2) is None  # one unit: no spread
+
+
+def _noise_images(size: tuple[int, int], seed: int = 3) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A smooth truth in [0.2, 0.8], a test image off it, and references truth + n, truth - n with n = +-0.05
+    (random signs): their mean is the truth, and half their mean squared difference (the noise variance the
+    gate estimates from two seeds) is (2 * 0.05)^2 / 2 = 0.005 exactly."""
+    rng = np.random.default_rng(seed)
+    y, x = np.mgrid[0:size[0], 0:size[1]] / max(size)
+    truth = np.stack([0.3 + 0.4 * x, 0.5 + 0.2 * np.sin(6 * y), 0.4 + 0.3 * x * y], axis=-1)
+    test = truth + 0.04 * np.sin(9 * x)[..., None]
+    n = 0.05 * rng.choice([-1.0, 1.0], truth.shape)
+    return test, truth + n, truth - n, truth
+
+
+def test_mse_se_by_hand_on_a_two_by_two_image():
+    """mse_se from per-pixel differences D = mean_c (t - r1)^2 - (t - r2)^2 with single pixels as units.
+    t = 0, r1 = 1 at pixel (0, 0) only, r2 = 1 at (0, 1) only: D = (1, -1, 0, 0), mean 0, sum of squares 2,
+    se = sqrt(4 / 3 * 2) / 4, mse_se = se / sqrt(2) = 1 / (2 sqrt(3)). A sum instead of the difference gives
+    D = (1, 1, 0, 0) and 1 / (2 sqrt(6)); 2 x 2 tiles give a single unit (None)."""
+    t = np.zeros((2, 2, 3))
+    r1, r2 = t.copy(), t.copy()
+    r1[0, 0], r2[0, 1] = 1.0, 1.0
+    out = gate_statistics.metric_noise(t, r1, r2, np.ones((2, 2), bool))
+    want, wrong = 1 / (2 * math.sqrt(3)), 1 / (2 * math.sqrt(6))
+    assert out["mse_se"] == pytest.approx(want, abs=1e-12)
+    assert abs(want - wrong) > 0.05  # the check tells the two apart
+
+
+@pytest.mark.parametrize("mask_kind", ["empty", "one pixel", "border pixel"])
+def test_metric_noise_without_enough_pixels_gives_none(mask_kind: str):
+    """Every estimate is present and None where it cannot be estimated, never an error or NaN: an empty
+    mask; a single covered pixel (one sampling unit for every standard error); a single pixel on the
+    border of a 16 x 16 image, which SSIM's window leaves out."""
+    test, r1, r2, _ = _noise_images((16, 16))
+    mask = np.zeros((16, 16), bool)
+    if mask_kind == "one pixel":
+        mask[8, 8] = True
+    elif mask_kind == "border pixel":
+        mask[0, 5] = True
+    out = gate_statistics.metric_noise(test, r1, r2, mask)
+    assert set(out) == NOISE_KEYS
+    assert out["mse_se"] is None and out["ssim_se"] is None and out["flip_se"] is None
+    if mask_kind != "one pixel":
+        assert out["ssim_noise_slope"] is None
+    if mask_kind == "empty":
+        assert all(v is None for v in out.values())
+
+
+def test_metric_noise_on_an_image_smaller_than_the_ssim_window():
+    """A 6 x 6 image (SSIM's window is 7): no SSIM estimates (None, keys present), the MSE ones still."""
+    test, r1, r2, _ = _noise_images((6, 6))
+    out = gate_statistics.metric_noise(test, r1, r2, np.ones((6, 6), bool))
+    assert set(out) == NOISE_KEYS
+    assert out["ssim_se"] is None and out["ssim_noise_slope"] is None
+    assert out["mse_se"] is not None and out["flip_noise_slope"] is not None
+
+
+def test_metric_noise_with_one_tile_of_ssim_and_flip():
+    """A 16 x 16 image is one 16 x 16 sampling unit: ssim_se and flip_se are None (no error), mse_se (single
+    pixels as units) is a number."""
+    test, r1, r2, _ = _noise_images((16, 16))
+    out = gate_statistics.metric_noise(test, r1, r2, np.ones((16, 16), bool))
+    assert out["ssim_se"] is None and out["flip_se"] is None and out["mse_se"] > 0
+
+
+@pytest.mark.parametrize("size", [(7, 7), (24, 40)])
+def test_noise_slopes_against_the_mean_reference(size: tuple[int, int]):
+    """The slopes: (metric against r1 - metric against (r1 + r2) / 2) / (variance / 2), with the variance
+    per value half the mean squared difference of the seeds. With r1,2 = truth +- n, |n| = 0.05, the mean
+    reference is the truth and the variance (2 * 0.05)^2 / 2 = 0.005 (hand value), so the slopes are
+    (metric(t, r1) - metric(t, truth)) / 0.0025, from metrics.ssim and metrics.flip. At 7 x 7 SSIM's window
+    just fits."""
+    test, r1, r2, truth = _noise_images(size)
+    mask = np.ones(size, bool)
+    out = gate_statistics.metric_noise(test, r1, r2, mask)
+    ssim_slope = (metrics.ssim(test, r1, mask) - metrics.ssim(test, truth, mask)) / 0.0025
+    flip_slope = (metrics.flip(test, r1, mask) - metrics.flip(test, truth, mask)) / 0.0025
+    assert out["ssim_noise_slope"] == pytest.approx(ssim_slope, rel=1e-6)
+    assert out["flip_noise_slope"] == pytest.approx(flip_slope, rel=1e-6)
+    assert abs(ssim_slope) > 1.0 and abs(flip_slope) > 1.0  # large enough that a factor 2 or 3 shows
+
+
+def test_noise_slopes_are_none_for_a_noise_free_reference():
+    """Two identical seeds: no noise variance, no slope (None, not a division by zero); the standard
+    errors are 0 (the maps against both seeds agree)."""
+    test, r1, _, _ = _noise_images((32, 32))
+    out = gate_statistics.metric_noise(test, r1, r1.copy(), np.ones((32, 32), bool))
+    assert out["ssim_noise_slope"] is None and out["flip_noise_slope"] is None
+    assert out["mse_se"] == 0.0 and out["ssim_se"] == 0.0 and out["flip_se"] == 0.0
+
+
+def test_ssim_and_flip_standard_errors_from_their_maps():
+    """ssim_se and flip_se are block_se of the map difference against the two seeds over sqrt(2)
+    (16 x 16 units; SSIM over its selection), on a 32 x 48 image (6 units)."""
+    test, r1, r2, _ = _noise_images((32, 48))
+    mask = np.ones((32, 48), bool)
+    out = gate_statistics.metric_noise(test, r1, r2, mask)
+    one, two = metrics.ssim(test, r1, mask, full=True), metrics.ssim(test, r2, mask, full=True)
+    want_ssim = gate_statistics.block_se(one.map - two.map, one.selection, 16) / math.sqrt(2)
+    want_flip = gate_statistics.block_se(metrics.flip_map(test, r1) - metrics.flip_map(test, r2), mask, 16)
+    assert out["ssim_se"] == pytest.approx(want_ssim, rel=1e-9)
+    assert out["flip_se"] == pytest.approx(want_flip / math.sqrt(2), rel=1e-9)
+
+
+def test_given_maps_are_used():
+    """`ssim_map` and `flip_map` given are the maps against the first seed: a map raised by 0.01 everywhere
+    raises each slope by 0.01 / (variance / 2) = 0.01 / 0.0025 = 4 (the variance 0.005 by hand)."""
+    test, r1, r2, _ = _noise_images((24, 40))
+    mask = np.ones((24, 40), bool)
+    plain = gate_statistics.metric_noise(test, r1, r2, mask)
+    ssim_map = metrics.ssim(test, r1, mask, full=True).map + 0.01
+    given = gate_statistics.metric_noise(test, r1, r2, mask, ssim_map=ssim_map,
+                                         flip_map=metrics.flip_map(test, r1) + 0.01)
+    assert given["ssim_noise_slope"] - plain["ssim_noise_slope"] == pytest.approx(4.0, rel=1e-6)
+    assert given["flip_noise_slope"] - plain["flip_noise_slope"] == pytest.approx(4.0, rel=1e-6)
+
+
+def test_metric_noise_computes_in_double_precision():
+    """Single-precision images (as the renderer and the path tracer give them) give the estimates of the
+    same values in double precision: the squared differences and their means are not rounded to float32."""
+    test, r1, r2, _ = _noise_images((24, 40))
+    mask = np.ones((24, 40), bool)
+    f32 = [np.asarray(x, np.float32) for x in (test, r1, r2)]
+    single = gate_statistics.metric_noise(*f32, mask)
+    double = gate_statistics.metric_noise(*(np.asarray(x, np.float64) for x in f32), mask)
+    for key in NOISE_KEYS:
+        assert single[key] == pytest.approx(double[key], rel=1e-12, abs=0), key
