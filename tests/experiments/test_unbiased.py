@@ -167,3 +167,63 @@ def test_shared_gaussian_noise_gives_the_per_pixel_resolution(truth):
         value, _ = metrics.psnr_unbiased(truth, truth + n1, truth + n2, mask)
         assert value == pytest.approx(resolution_db, abs=0.3)
         assert value < resolution_db + 10 * math.log10(math.sqrt(3)) - 1.0
+
+
+# --------------------------------------------------------------------------- few pixels, the floor, the range, by hand
+
+
+def _pixels(*rows: tuple[float, float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """A 1 x N test image of zeros and a noise-free reference (r2 = r) with the given pixels: d_p is the mean
+    over channels of r^2, a hand value."""
+    r = np.array([rows], np.float64)
+    return np.zeros_like(r), r, r.copy(), np.ones(r.shape[:2], bool)
+
+
+@pytest.mark.parametrize(("rows", "want_db", "want_clamped"), [
+    # one pixel, d = 0.25: no spread (se = 0), the floor is the cap's 1e-10: 10 log10(1 / 0.25) = 6.0206 dB
+    (((0.5, 0.5, 0.5),), 10 * math.log10(4.0), False),
+    # two pixels, d = (0.25, 0.01): est 0.13, std 0.12 sqrt 2, se 0.12, floor 0.24: 10 log10(1 / 0.24), clamped
+    (((0.5, 0.5, 0.5), (0.1, 0.1, 0.1)), -10 * math.log10(0.24), True),
+    # d = (0.75, 0.25): est 0.5, se 0.25, floor exactly 0.5 = est: clamped (MSE_u <= floor), 10 log10 2
+    (((1.0, 1.0, 0.5), (0.5, 0.5, 0.5)), 10 * math.log10(2.0), True),
+])
+def test_few_pixels_by_hand(rows, want_db, want_clamped):
+    """The standard error needs two pixels (one gives se = 0, not a made-up spread), two are enough, and an
+    estimate exactly at its floor counts as clamped; values from d_p by hand."""
+    value, clamped = metrics.psnr_unbiased(*_pixels(*rows))
+    assert value == pytest.approx(want_db, abs=1e-9)
+    assert clamped is want_clamped
+
+
+def test_clamped_at_the_cap_floor():
+    """An error below the cap's floor 1e-10 (data_range 1, PSNR_CAP 100 dB) with no spread: t - r = 2^-17 in
+    every value, d_p = 2^-34 = 5.8e-11 <= 1e-10, so the value is the cap, 100 dB, and clamped; a floor of
+    11^-10 = 3.9e-11 instead would not clamp it."""
+    r = np.full((4, 4, 3), 0.5)
+    value, clamped = metrics.psnr_unbiased(r + 2.0**-17, r, r.copy(), np.ones((4, 4), bool))
+    assert 11.0**-10 < 2.0**-34 <= 1e-10
+    assert value == 100.0 and clamped
+
+
+@pytest.mark.parametrize("scale", [2.0, 255.0])
+def test_data_range_scales_out(scale):
+    """PSNR is scale-free: images and data_range multiplied by the same factor give the same value (by
+    hand, for an error of 0.1 in every value, noise-free reference: 20 dB), and identical images read the
+    cap of 100 dB at any range (their floor is data_range^2 1e-10)."""
+    r = np.full((4, 4, 3), 0.5)
+    mask = np.ones((4, 4), bool)
+    value, clamped = metrics.psnr_unbiased(scale * (r + 0.1), scale * r, scale * r, mask, data_range=scale)
+    assert value == pytest.approx(20.0, abs=1e-9) and not clamped
+    value, clamped = metrics.psnr_unbiased(scale * r, scale * r, scale * r, mask, data_range=scale)
+    assert value == pytest.approx(100.0, abs=1e-9) and clamped
+
+
+def test_single_precision_images_computed_in_double():
+    """float32 images (as renders are stored) give the value of the same numbers in float64: differences
+    and squares are not rounded to single precision."""
+    rng = np.random.default_rng(5)
+    t, r, r2 = (rng.uniform(0.2, 0.8, (32, 32, 3)).astype(np.float32) for _ in range(3))
+    mask = np.ones((32, 32), bool)
+    single = metrics.psnr_unbiased(t, r, r2, mask)
+    double = metrics.psnr_unbiased(*(np.asarray(x, np.float64) for x in (t, r, r2)), mask)
+    assert single.value == pytest.approx(double.value, rel=1e-13, abs=0)
