@@ -201,7 +201,11 @@ def _median_cut_regions(energy: np.ndarray, count: int) -> list[tuple[int, int, 
 
 
 def median_cut(env: np.ndarray, count: int) -> LightArray:
-    """Debevec's median-cut array of `count` (a power of two) lights for an equirect map (H, W, 3)."""
+    """Debevec's median-cut array of `count` (a power of two) lights for an equirect map (H, W, 3).
+
+    Each light sits along its region's energy centroid (a black region's solid-angle centroid); a region
+    whose centroid vanishes (one light for a map symmetric about the centre, such as a uniform one) puts
+    its light at its middle texel."""
     problem = count_problem("median_cut", count)
     if problem:
         raise ValueError(f"{count} lights: {problem}")
@@ -216,7 +220,9 @@ def median_cut(env: np.ndarray, count: int) -> LightArray:
         e = energy[r0:r1, c0:c1]
         weight = e if e.sum() > 0 else omega[r0:r1, c0:c1]  # a black region: its geometric centre
         centroid = (dirs[r0:r1, c0:c1] * weight[..., None]).sum(axis=(0, 1))
-        if np.linalg.norm(centroid) == 0.0:  # a region symmetric about the centre: its middle texel
+        # a region symmetric about the centre (the whole sphere): its centroid is rounding residue, at most
+        # a few ulps of the weight, and its light sits at the middle texel instead
+        if np.linalg.norm(centroid) <= 1e-9 * weight.sum():
             centroid = dirs[(r0 + r1) // 2, (c0 + c1) // 2]
         lights[i] = normalize(centroid)
     return LightArray(lights, region_powers(env, texel_light, count), texel_light, "median_cut")

@@ -285,3 +285,37 @@ def test_median_cut_of_a_black_map_cuts_in_the_middle_and_lights_the_geometric_c
         assert cos == pytest.approx(1.0, abs=1e-12)
     assert np.cos(2 * np.pi / 64) < 1.0 - 1e-3  # half a texel of azimuth is far beyond that tolerance
     np.testing.assert_array_equal(array.powers, 0.0)
+
+
+@pytest.mark.parametrize(("h", "w"), [(2, 4), (4, 8), (5, 8), (8, 16)])
+@pytest.mark.parametrize("value", [0.0, 1.0])
+def test_a_single_median_cut_light_on_a_symmetric_map_sits_at_the_middle_texel(h, w, value):
+    """One light for a uniform (or black) map: the whole sphere is its region, whose centroid is zero up to
+    rounding, so the light sits at the middle texel (row h // 2, column w // 2) rather than along the
+    rounding residue. By hand its height is y = cos(pi (h // 2) / (h - 1)): -1, -0.5, 0, -cos(pi / 7)... The
+    texel a third of the way (row h // 3, column w // 3) is a different direction on these maps."""
+    array = light_array.median_cut(np.full((h, w, 3), value, np.float32), 1)
+    dirs = equirect_directions(h, w)
+    d = array.directions[0]
+    assert d[1] == pytest.approx(np.cos(np.pi * (h // 2) / (h - 1)), abs=1e-12)
+    np.testing.assert_allclose(d, dirs[h // 2, w // 2], atol=1e-12)
+    assert np.abs(dirs[h // 3, w // 3] - d).max() > 0.1
+    assert array.placement == "median_cut"
+
+
+def test_map_integral_per_channel_by_hand():
+    """The integral over the sphere of a constant map (1, 2, 0) is (4 pi, 8 pi, 0) per channel (the solid
+    angles of the quadrature sum to 4 pi), on a map whose width and height differ."""
+    env = np.empty((6, 10, 3), np.float32)
+    env[...] = (1.0, 2.0, 0.0)
+    np.testing.assert_allclose(light_array.map_integral(env), [4 * np.pi, 8 * np.pi, 0.0], atol=1e-12)
+
+
+def test_geodesic_powers_have_a_row_for_every_light_even_without_texels():
+    """More lights than texels (a 2 x 4 map, 42 lights): the lights that no texel is nearest to carry no
+    power, but each light still has its RGB row, and the rows sum to the map's integral (4 pi per channel
+    for a map of ones)."""
+    array = light_array.geodesic(np.ones((2, 4, 3), np.float32), 42)
+    assert array.powers.shape == (42, 3)
+    assert (array.powers == 0).all(axis=1).sum() >= 42 - 8
+    np.testing.assert_allclose(array.powers.sum(axis=0), 4 * np.pi, atol=1e-12)
