@@ -35,6 +35,14 @@ def test_six_cones_are_the_seeds_sixty_degrees_and_apertures_shrink_with_count()
         vct_math.cone_set(5)
 
 
+@pytest.mark.parametrize(("count", "degrees"), [(4, 37.0199123), (6, 30.0), (9, 24.3756529)])
+def test_half_angle_for_by_hand(count: int, degrees: float):
+    """Equal-area cones: 1 - cos a = 1 / n, scaled so that 6 cones get the seed's 30 degrees; by hand
+    a = acos(1 - 1 / n) * 30 / acos(5 / 6) degrees: acos(3/4) = 41.4096, acos(8/9) = 27.2660, acos(5/6) =
+    33.5573 degrees. Called directly (cone_set caches its result)."""
+    assert math.degrees(vct_math.half_angle_for(count)) == pytest.approx(degrees, abs=1e-6)
+
+
 def test_glossy_cone_follows_the_phong_lobe():
     # 2 pi (1 - cos a) = 2 pi / (N + 1)
     a = vct_math.glossy_half_angle(50.0)

@@ -348,3 +348,26 @@ def test_capture_frame_parallel_test_is_relative_to_up(scale):
     # just inside the tolerance, every length of the same up gives the same frame
     near = np.array([0.0, 5e-7, -1.0])
     np.testing.assert_allclose(spheremap.capture_frame(forward, scale * near), REPLACED_FRAME, atol=1e-15)
+
+
+def test_paraboloid_position_defaults_to_the_front_layer():
+    """Without a layer, a plane position is on layer 0, the z >= 0 hemisphere: the centre is +z, (0.5, 0)
+    is (2 x, 2 y, 1 - r^2) / (1 + r^2) = (0.8, 0, 0.6) by hand; layer 1 mirrors z."""
+    np.testing.assert_allclose(paraboloid.position_to_direction(0.0, 0.0), [0.0, 0.0, 1.0], atol=1e-15)
+    np.testing.assert_allclose(paraboloid.position_to_direction(0.5, 0.0), [0.8, 0.0, 0.6], atol=1e-15)
+    np.testing.assert_allclose(paraboloid.position_to_direction(0.5, 0.0, 1), [0.8, 0.0, -0.6], atol=1e-15)
+
+
+@pytest.mark.parametrize(("d", "layer"), [
+    ((1.0, 0.0, 0.0), 0),     # on the equator (z = 0): layer 0, as for every z >= 0
+    ((0.0, -1.0, 0.0), 0),
+    ((1.0, 0.0, -0.0), 0),    # a negative zero is z >= 0 too
+    ((1.0, 0.0, -1e-9), 1),   # just below it: layer 1
+    ((0.0, 0.0, -1.0), 1),
+])
+def test_paraboloid_layer_boundary_is_the_equator_on_the_front(d, layer):
+    """direction_to_position: layer 0 for z >= 0 (its docstring), so the equator belongs to the front layer;
+    there the position is on the unit circle, (x, y) = (d_x, d_y) / (1 + |d_z|)."""
+    got_layer, x, y = paraboloid.direction_to_position(np.array(d))
+    assert int(got_layer) == layer
+    np.testing.assert_allclose([x, y], np.array(d[:2]) / (1.0 + abs(d[2])), atol=1e-12)
