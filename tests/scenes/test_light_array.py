@@ -288,11 +288,12 @@ def test_median_cut_of_a_black_map_cuts_in_the_middle_and_lights_the_geometric_c
 
 
 @pytest.mark.parametrize(("h", "w"), [(2, 4), (4, 8), (5, 8), (8, 16)])
-@pytest.mark.parametrize("value", [0.0, 1.0])
+@pytest.mark.parametrize("value", [0.0, 1.0, 1e6, 1e-6])
 def test_a_single_median_cut_light_on_a_symmetric_map_sits_at_the_middle_texel(h, w, value):
     """One light for a uniform (or black) map: the whole sphere is its region, whose centroid is zero up to
     rounding, so the light sits at the middle texel (row h // 2, column w // 2) rather than along the
-    rounding residue. By hand its height is y = cos(pi (h // 2) / (h - 1)): -1, -0.5, 0, -cos(pi / 7)... The
+    rounding residue, however bright the map (the residue grows with the weights, so what counts as zero
+    must grow with them too: a sun-bright 1e6 map and a dim 1e-6 one). By hand its height is y = cos(pi (h // 2) / (h - 1)): -1, -0.5, 0, -cos(pi / 7)... The
     texel a third of the way (row h // 3, column w // 3) is a different direction on these maps."""
     array = light_array.median_cut(np.full((h, w, 3), value, np.float32), 1)
     dirs = equirect_directions(h, w)
