@@ -293,7 +293,8 @@ def test_a_single_median_cut_light_on_a_symmetric_map_sits_at_the_middle_texel(h
     """One light for a uniform (or black) map: the whole sphere is its region, whose centroid is zero up to
     rounding, so the light sits at the middle texel (row h // 2, column w // 2) rather than along the
     rounding residue, however bright the map (the residue grows with the weights, so what counts as zero
-    must grow with them too: a sun-bright 1e6 map and a dim 1e-6 one). By hand its height is y = cos(pi (h // 2) / (h - 1)): -1, -0.5, 0, -cos(pi / 7)... The
+    must grow with them too: a sun-bright 1e6 map and a dim 1e-6 one). By hand its height is
+    y = cos(pi (h // 2) / (h - 1)): -1, -0.5, 0, -cos(pi / 7)... The
     texel a third of the way (row h // 3, column w // 3) is a different direction on these maps."""
     array = light_array.median_cut(np.full((h, w, 3), value, np.float32), 1)
     dirs = equirect_directions(h, w)
