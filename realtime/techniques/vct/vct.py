@@ -303,20 +303,7 @@ class VoxelScene:
         data = np.zeros((n, 2, 4), "f4")
         data[:, 0, :3] = points
         data[:, 1, :3] = normals
-        limits.check_storage(self.ctx, data.nbytes, "probe points", "the probe's points")
-        src = self.ctx.buffer(data.tobytes())
-        out = self.ctx.buffer(reserve=n * 16)
-        self.bind_trace(p)
-        src.bind_to_storage_buffer(0)
-        out.bind_to_storage_buffer(1)
-        p["count"] = n
-        set_uniform(p, "lod_min", lod_min)
-        p.run(groups(n, 64))
-        self.ctx.memory_barrier()
-        res = np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)
-        src.release()
-        out.release()
-        return res
+        return self._dispatch(p, data, "probe points", "the probe's points", lod_min)
 
     def trace_cone(self, origins: np.ndarray, directions: np.ndarray, tan_half: np.ndarray, t0: np.ndarray,
                    surfaces: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
@@ -331,20 +318,27 @@ class VoxelScene:
         data[:, 0, :3], data[:, 0, 3] = origins, t0
         data[:, 1, :3], data[:, 1, 3] = directions, tan_half
         data[:, 2, :3], data[:, 3, :3] = surfaces, normals
-        limits.check_storage(self.ctx, data.nbytes, "cones", "the cone probe's cones")
+        return self._dispatch(p, data, "cones", "the cone probe's cones", lod_min)
+
+    def _dispatch(self, prog, data: np.ndarray, key: str, what: str, lod_min: float) -> np.ndarray:
+        """Run a trace-reading compute shader over the records in `data` (storage buffer 0), one
+        invocation each, and read back its (N, 4) results (storage buffer 1) as float64."""
+        n = len(data)
+        limits.check_storage(self.ctx, data.nbytes, key, what)
         src = self.ctx.buffer(data.tobytes())
         out = self.ctx.buffer(reserve=n * 16)
-        self.bind_trace(p)
-        src.bind_to_storage_buffer(0)
-        out.bind_to_storage_buffer(1)
-        p["count"] = n
-        set_uniform(p, "lod_min", lod_min)
-        p.run(groups(n, 64))
-        self.ctx.memory_barrier()
-        res = np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)
-        src.release()
-        out.release()
-        return res
+        try:
+            self.bind_trace(prog)
+            src.bind_to_storage_buffer(0)
+            out.bind_to_storage_buffer(1)
+            prog["count"] = n
+            set_uniform(prog, "lod_min", lod_min)
+            prog.run(groups(n, 64))
+            self.ctx.memory_barrier()
+            return np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)
+        finally:
+            src.release()
+            out.release()
 
     def meta(self) -> dict:
         g = self.grid
