@@ -28,22 +28,16 @@ import numpy as np
 
 from scenes.environment import light_array
 from scenes.model import materials
-from scenes.storage.disk_cache import CacheWarning, cache_dir, locked, write_npz
+from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, locked, write_npz
 
 __all__ = ["CacheWarning", "cache_dir", "load", "locked", "reference_key", "store", "vars_of", "write_npz"]
-
-
-def _digest_array(h, a: np.ndarray) -> None:
-    a = np.ascontiguousarray(a)
-    h.update(f"{a.dtype.str}{a.shape}".encode())
-    h.update(a.tobytes())
 
 
 def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mitsuba_version: str,
                   plugin_version: int, integrator: str) -> str:
     """Hex SHA-256 over what changes a reference (see the module docstring)."""
     h = hashlib.sha256()
-    _digest_array(h, env)
+    digest_arrays(h, env)
     cam = scene.camera
     ref = scene.reference
     desc = {
@@ -62,7 +56,7 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
     h.update(json.dumps(desc, sort_keys=True).encode())
     for obj in scene.objects:
         for arr in (obj.mesh.positions, obj.mesh.normals, obj.mesh.indices):
-            _digest_array(h, arr)
+            digest_arrays(h, arr)
     return h.hexdigest()
 
 
@@ -73,8 +67,8 @@ def vars_of(material) -> dict:
 
 def _checksum(rgb: np.ndarray, mask: np.ndarray, meta_json: str) -> str:
     h = hashlib.sha256()
-    _digest_array(h, rgb)
-    _digest_array(h, mask)
+    digest_arrays(h, rgb)
+    digest_arrays(h, mask)
     h.update(meta_json.encode())
     return h.hexdigest()
 

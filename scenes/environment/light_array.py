@@ -36,6 +36,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from scenes.environment.directions import equirect_directions, equirect_solid_angles, luminance, normalize
+from scenes.storage.disk_cache import digest_arrays
 
 PLACEMENTS = ("geodesic", "median_cut")
 #: subdivisions of each polyhedron offered (counts up to 10242 lights)
@@ -242,13 +243,6 @@ _DIGESTS: OrderedDict[tuple[str, str, int], str] = OrderedDict()
 _DIGESTS_KEPT = 64
 
 
-def _digest_arrays(h, *arrays: np.ndarray) -> None:
-    for a in arrays:
-        a = np.ascontiguousarray(a)
-        h.update(f"{a.dtype.str}{a.shape}".encode())
-        h.update(a.tobytes())
-
-
 def content_digest(env: np.ndarray, placement: str, count: int) -> str:
     """Hex SHA-256 of the array's directions and powers for a map (H, W, 3): what a reference rendered
     with the array (reference.lighting = "light_array") depends on, so that the reference cache and
@@ -257,12 +251,12 @@ def content_digest(env: np.ndarray, placement: str, count: int) -> str:
     difference of float64 sums between two machines does not split the key). Made once per map,
     placement and count in a process (the map's bytes are hashed to find it)."""
     h = hashlib.sha256()
-    _digest_arrays(h, env)
+    digest_arrays(h, env)
     key = (h.hexdigest(), placement, int(count))
     if key not in _DIGESTS:
         array = make(env, placement, count)
         h = hashlib.sha256()
-        _digest_arrays(h, array.directions.astype(np.float32), array.powers.astype(np.float32))
+        digest_arrays(h, array.directions.astype(np.float32), array.powers.astype(np.float32))
         _DIGESTS[key] = h.hexdigest()
         while len(_DIGESTS) > _DIGESTS_KEPT:
             _DIGESTS.popitem(last=False)

@@ -18,6 +18,15 @@ from pathlib import Path
 import numpy as np
 
 
+def digest_arrays(h, *arrays: np.ndarray) -> None:
+    """Feed each array's dtype, shape and bytes (C order) to the hash `h`: a cache key's digest of content,
+    so arrays of equal bytes but another dtype or shape key differently."""
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(f"{a.dtype.str}{a.shape}".encode())
+        h.update(a.tobytes())
+
+
 class CacheWarning(UserWarning):
     """The cache could not be used as intended (corrupt entry, unwritable folder); the render goes on."""
 

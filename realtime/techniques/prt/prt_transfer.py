@@ -80,7 +80,7 @@ from rich.console import Console
 from scipy import sparse
 
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
-from scenes.storage.disk_cache import CacheWarning, cache_dir, write_npz
+from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, write_npz
 
 #: bump when the transfer computed for the same inputs changes (invalidates the cache)
 TRANSFER_VERSION = 1
@@ -323,12 +323,6 @@ def transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: 
 # ---------------------------------------------------------------------------------------------- cache
 
 
-def _digest_array(h, a: np.ndarray) -> None:
-    a = np.ascontiguousarray(a)
-    h.update(f"{a.dtype.str}{a.shape}".encode())
-    h.update(a.tobytes())
-
-
 def transfer_key(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
                  seed: int = 0) -> str:
     """Hex SHA-256 over everything that changes the transfer (module docstring)."""
@@ -339,14 +333,14 @@ def transfer_key(objects: Sequence[TransferObject], order: int, rays: int, bounc
     h.update(json.dumps(desc, sort_keys=True).encode())
     for o in objects:
         for a in (o.positions, o.normals, o.indices):
-            _digest_array(h, np.asarray(a))
+            digest_arrays(h, np.asarray(a))
     return h.hexdigest()
 
 
 def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
     h = hashlib.sha256()
     for a in arrays:
-        _digest_array(h, a)
+        digest_arrays(h, a)
     h.update(meta_json.encode())
     return h.hexdigest()
 
