@@ -65,7 +65,7 @@ def scene_content(scene, reference_only: bool = False) -> dict:
     """What determines a row of `scene`: the resolved scene with file paths replaced by digests of
     their content (a map's bytes, a mesh's arrays as read); the [gate] table is left out (it changes no
     measurement). `reference_only` keeps what the reference depends on (no [realtime], no tone mapping)."""
-    d = scene.to_dict()
+    d = scene.content_dict()
     d.pop("path", None)
     d.pop("gate", None)
     env = d["environment"]

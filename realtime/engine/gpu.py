@@ -350,6 +350,9 @@ class SceneDrawer:
             _set(p, "ks", m.ks)
             _set(p, "f0", m.f0)
             _set(p, "two_sided", int(m.two_sided))
+            _set(p, "base_color", m.base_color)
+            _set(p, "metallic", m.metallic)
+            _set(p, "roughness", m.roughness)
             for t in self.techniques:
                 t.bind_object(p, obj)
             vao.render(moderngl.TRIANGLES)

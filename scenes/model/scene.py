@@ -56,14 +56,18 @@ class Material:
     exponent: float = 100.0
     f0: float = 0.04
     two_sided: bool = False  # see scenes/model/materials.py: one-sided by default
+    # type = "pbr" (glTF 2.0 metallic-roughness): linear RGB, and the two factors in [0, 1]
+    base_color: tuple[float, float, float] = (0.8, 0.8, 0.8)
+    metallic: float = 0.0
+    roughness: float = 0.5
 
     @property
     def has_diffuse(self) -> bool:
-        return materials.of(self).diffuse_lobe and max(self.kd) > 0
+        return materials.has_diffuse(self)
 
     @property
     def has_glossy(self) -> bool:
-        return materials.of(self).glossy_lobe and max(self.ks) > 0
+        return materials.has_glossy(self)
 
 
 @dataclass(frozen=True)
@@ -224,7 +228,7 @@ class Scene:
             out.add("diffuse")
         if any(o.material.has_glossy for o in self.objects):
             out.add("glossy")
-        if any(materials.of(o.material).fresnel == "schlick" for o in self.objects):
+        if any(materials.of(o.material).fresnel in ("schlick", "gltf") for o in self.objects):
             out.add("fresnel")
         if len(self.objects) > 1 or any(not o.mesh.convex for o in self.objects):
             out |= {"occlusion", "interreflection"}
@@ -254,6 +258,22 @@ class Scene:
         d["effects"] = sorted(self.effects)
         return d
 
+    def content_dict(self) -> dict:
+        """`to_dict()` as result rows hash it (their content ids): without the keys added to the scene format
+        after those ids were first pinned (ADDED_KEYS) where this scene does not use them, so that a new
+        material type or technique leaves every earlier row's id, and so its resumability, as it was."""
+        d = self.to_dict()
+        for obj, od in zip(self.objects, d["objects"], strict=True):
+            used = materials.of(obj.material).all_fields
+            for key in ADDED_KEYS["material"]:
+                if key not in used:
+                    od["material"].pop(key, None)
+        users = technique_registry.table_users(self.realtime)
+        for table in ADDED_KEYS["realtime"]:
+            if users.get(table) is None:
+                d["realtime"].pop(table, None)
+        return d
+
 
 # --------------------------------------------------------------------------- schema
 
@@ -278,6 +298,11 @@ def _vec3(lo: float = -1e6, hi: float = 1e6):
         return tuple(out)
 
     return check, text
+
+
+def _with_reason(check: tuple, reason: str) -> tuple:
+    """A check whose error message also says why the range is what it is."""
+    return check[0], f"{check[1]} ({reason})"
 
 
 def _view_direction():
@@ -333,6 +358,10 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
         "exponent": _num(0, 1e7),
         "f0": _num(0, 1),
         "two_sided": _bool(),
+        "base_color": _vec3(0.0, 1.0),
+        "metallic": _with_reason(_num(0, 1), "glTF 2.0's metallic factor: 0 dielectric, 1 metal, between a mix"),
+        "roughness": _with_reason(_num(0, 1), "glTF 2.0's roughness factor, alpha = roughness^2: 0 a mirror, "
+                                              "1 the roughest GGX lobe"),
     },
     "tonemap": {
         "key": _num(0, 100, lo_open=True),
@@ -365,6 +394,15 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
         "max_flip": _num(0, 1),
         "allow_empty": _bool(),
     },
+}
+
+
+#: keys added to the scene format after result rows' content ids were first pinned (Scene.content_dict):
+#: they enter a row's id only where the scene uses them (a material field its type has, a technique
+#: table its chosen technique reads). A key added to the format later is listed here too.
+ADDED_KEYS = {
+    "material": ("base_color", "metallic", "roughness"),
+    "realtime": ("split_sum",),
 }
 
 

@@ -38,6 +38,7 @@ from functools import cache
 from importlib import import_module, metadata, resources
 from typing import Any
 
+from scenes.model import materials
 from scenes.storage.errors import (
     InputError,
     MissingCapability,
@@ -59,7 +60,9 @@ RESERVED_TIMING_KEYS = frozenset({"draw", "total", "precompute", "background", "
 #: the effect keys that may choose NOTHING
 OPTIONAL_EFFECTS = ("occlusion", "interreflection")
 
-Check = tuple[Callable[[Any], Any], str]  # (value -> checked value or None, what is allowed)
+Check = tuple[Callable[[Any], Any], str]
+#: the material types a technique shades unless it declares others: the paper's
+PAPER_MATERIALS = frozenset(materials.PAPER_TYPES)  # (value -> checked value or None, what is allowed)
 
 
 # --------------------------------------------------------------------------- parameter checks
@@ -192,6 +195,9 @@ class Declaration:
     row_label: Callable | None = None
     covers: Callable | None = None
     effective_settings: Callable | None = None
+    #: the material types (scenes/model/materials.py) whose lobes it shades; None: the paper's own
+    #: (diffuse, phong, blend), whose Phong lobe and kd it is written for
+    materials: frozenset[str] | None = None
     # filled in by the registry
     distribution: str = ""  # the distribution that registered it ("iblcheck" for builtins)
     entry_point: str = ""
@@ -490,7 +496,25 @@ def validate(rt, given: dict, where: str) -> None:
             d.call("validate", rt, given, where)
 
 
+def shaded_materials(d: Declaration) -> frozenset[str]:
+    """The material types technique `d` shades (Declaration.materials)."""
+    return d.materials if d.materials is not None else PAPER_MATERIALS
+
+
 def validate_objects(rt, objects, where: str) -> None:
+    """Each chosen technique's rules against the objects, after the rule every technique shares: an
+    object's lobe is shaded by a technique written for its material type (a Phong chain cannot shade a
+    GGX lobe, a GGX chain not a Phong one)."""
+    for d in chosen(rt):
+        for i, obj in enumerate(objects):
+            m = obj.material
+            uses = {"diffuse": m.has_diffuse, "glossy": m.has_glossy}.get(d.effect, True)
+            if uses and m.type not in shaded_materials(d):
+                fit = [e.choice for e in registry().declarations if e.effect == d.effect
+                       and m.type in shaded_materials(e)]
+                raise SceneError(f"{where}: objects[{i}].material.type = {m.type!r} with {d.choice}: it shades "
+                                 f"{', '.join(sorted(shaded_materials(d)))} materials only; "
+                                 + (f"choose {' or '.join(fit)}" if fit else "no registered technique shades it"))
     for d in chosen(rt):
         if d.validate_objects is not None:
             d.call("validate_objects", rt, objects, where)

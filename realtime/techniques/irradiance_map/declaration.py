@@ -46,5 +46,7 @@ DECLARATIONS = (
         axes={"realtime.irradiance_map.size": (16, 32, 64), "realtime.irradiance_map.source_size": (16, 32)},
         package=__package__, fragment_glsl=("diffuse_irradiance_map.glsl",),
         validate=validate, describe=describe, row_label=row_label,
+        # E(n) is the material's business: any Lambert term, the paper's kd / pi or glTF's base_color / pi
+        materials=frozenset({"diffuse", "blend", "pbr"}),
     ),
 )

@@ -45,5 +45,7 @@ DECLARATIONS = (
         axes={"realtime.sh_order": (2, 3, 4), "realtime.sh_window": ("none", "auto")},
         package=__package__, fragment_glsl=("diffuse_sh9.glsl", "diffuse_sh_n.glsl"),
         validate=validate, describe=describe, row_label=row_label,
+        # E(n) is the material's business: any Lambert term, the paper's kd / pi or glTF's base_color / pi
+        materials=frozenset({"diffuse", "blend", "pbr"}),
     ),
 )
