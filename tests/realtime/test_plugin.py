@@ -69,7 +69,7 @@ def test_the_example_registers_beside_the_builtins(site, tmp_path):
                          check=True).stdout.splitlines()
     decls = json.loads(out[0])
     assert decls[-1] == ["diffuse", "hemisphere", DIST, False, [{"realtime.diffuse": "hemisphere"}]]
-    assert all(d[3] for d in decls[:-1]) and len(decls) == 14  # the 12 builtins first
+    assert all(d[3] for d in decls[:-1]) and len(decls) == 14  # the 13 builtins first
     assert out[1] == "False"  # loading every declaration imports no OpenGL
 
 
