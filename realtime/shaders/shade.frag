@@ -9,10 +9,13 @@ in vec3 v_normal;
 in vec3 v_reflect;  // realtime.reflection = "per_vertex": the mirror direction of each vertex, interpolated
 #endif
 uniform vec3 camera_position;
-uniform int material_type;  // MATERIAL_DIFFUSE, MATERIAL_PHONG, MATERIAL_BLEND
+uniform int material_type;  // MATERIAL_DIFFUSE, MATERIAL_PHONG, MATERIAL_BLEND, MATERIAL_PBR
 uniform vec3 kd;
 uniform vec3 ks;
 uniform float f0;
+uniform vec3 base_color;  // MATERIAL_PBR (glTF 2.0 metallic-roughness): linear RGB
+uniform float metallic;
+uniform float roughness;
 uniform int two_sided;  // material.two_sided (scenes/model/materials.py): 0 one-sided, 1 two-sided
 out vec4 frag;
 const float PI = 3.14159265358979323846;
@@ -23,7 +26,8 @@ vec3 shading_normal;
 // The chosen techniques' GLSL goes here (realtime.engine.gpu.shading_sources), occlusion and
 // interreflection first (the light array's lobes call the shadow maps' light_visibility), then:
 //   vec3 diffuse_irradiance(vec3 n): E(n), the cosine-weighted integral of the environment
-//   vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r
+//   vec3 glossy_radiance(vec3 r): the environment seen through the normalised Phong lobe about r (the split
+//     sum's: through the GGX lobe of the object's roughness, with split_sum_lobes for the pbr material)
 // @techniques
 
 void main() {
@@ -45,19 +49,35 @@ void main() {
     float n_dot_v = clamp(dot(n, v), 0.0, 1.0);
     vec3 Ld = vec3(0.0);
     vec3 Lg = vec3(0.0);
+    vec3 E = vec3(0.0);  // the irradiance E(n)
+    vec3 G = vec3(0.0);  // the glossy radiance
 #ifdef HAS_DIFFUSE
-    Ld = kd / PI * max(diffuse_irradiance(n), vec3(0.0));
+    E = max(diffuse_irradiance(n), vec3(0.0));
+    Ld = kd / PI * E;
 #endif
 #ifdef HAS_GLOSSY
 #ifdef REFLECTION_PER_VERTEX
-    Lg = ks * glossy_radiance(normalize(v_reflect));
+    G = glossy_radiance(normalize(v_reflect));
 #else
-    Lg = ks * glossy_radiance(reflect(-v, n));
+    G = glossy_radiance(reflect(-v, n));
 #endif
+    Lg = ks * G;
+#endif
+#ifdef GLOSSY_SPLIT_SUM
+    // glTF's metallic-roughness material: its Lambert term base_color / pi E (E = 0 where the scene has no
+    // diffuse effect: all its pbr objects are metals) and its GGX lobe, composed as the Khronos viewer does
+    if (material_type == MATERIAL_PBR) {
+        split_sum_lobes(n_dot_v, base_color / PI * E, G, Ld, Lg);
+    }
 #endif
     // the techniques' shade entries: void f(n, v, inout Ld, inout Lg) (voxel cone tracing's visibility)
     // @shade entries
     vec3 color = material_type == MATERIAL_DIFFUSE ? Ld : Lg;
+#ifdef GLOSSY_SPLIT_SUM
+    if (material_type == MATERIAL_PBR) {
+        color = Ld + Lg;
+    }
+#endif
 #ifdef HAS_FRESNEL
     if (material_type == MATERIAL_BLEND) {
         float F = f0 + (1.0 - f0) * pow(1.0 - n_dot_v, 5.0);  // Schlick, eq. 15

@@ -7,6 +7,10 @@ from __future__ import annotations
 from dataclasses import dataclass, fields
 
 from realtime.techniques.split_sum import recipes
+from realtime.techniques.split_sum.dfg import PRECISIONS
+from realtime.techniques.split_sum.ggx import VISIBILITIES
+from realtime.techniques.split_sum.ibl_fresnel import MULTISCATTER
+from realtime.techniques.split_sum.mappings import MAPPINGS
 from realtime.techniques.split_sum.recipes import FROM_RECIPE
 from scenes.model.technique_registry import (
     Check,
@@ -18,8 +22,6 @@ from scenes.model.technique_registry import (
     require_cube,
 )
 from scenes.storage.errors import SceneError
-
-MAPPINGS = ("linear", "filament", "threejs", "babylon", "per_material")
 
 
 def _or_recipe(check: Check) -> Check:
@@ -42,13 +44,16 @@ class SplitSum:
     recipe: str = param("khronos", one_of(*recipes.NAMES))
     sampling: str = param(FROM_RECIPE, _or_recipe(one_of("importance", "vndf")))
     samples: int | str = param(FROM_RECIPE, _or_recipe(number(1, 65536, integer=True)))
+    double_samples: bool | str = param(FROM_RECIPE, _or_recipe(_boolean()))
     fis_bias: float | str = param(FROM_RECIPE, _or_recipe(number(-16, 16)))
     lod_mapping: str = param(FROM_RECIPE, _or_recipe(one_of(*MAPPINGS)))
     size: int | str = param(FROM_RECIPE, _or_recipe(power_of_two(1, 4096)))
+    min_size: int | str = param(FROM_RECIPE, _or_recipe(power_of_two(1, 4096)))
     lut_size: int | str = param(FROM_RECIPE, _or_recipe(power_of_two(2, 4096)))
     lut_samples: int | str = param(FROM_RECIPE, _or_recipe(number(1, 1 << 20, integer=True)))
-    lut_precision: str = param(FROM_RECIPE, _or_recipe(one_of("f32", "f16", "u8")))
-    multiscatter: bool | str = param(FROM_RECIPE, _or_recipe(_boolean()))
+    lut_precision: str = param(FROM_RECIPE, _or_recipe(one_of(*PRECISIONS)))
+    visibility: str = param(FROM_RECIPE, _or_recipe(one_of(*VISIBILITIES)))
+    multiscatter: str = param(FROM_RECIPE, _or_recipe(one_of(*MULTISCATTER)))
 
 
 def validate(rt, given: dict, where: str) -> None:
@@ -82,7 +87,7 @@ DECLARATIONS = (
         timing_key="prefilter",
         reads=("realtime.split_sum.",),
         axes={"realtime.split_sum.recipe": ("khronos", "filament", "threejs", "babylon")},
-        package=__package__,
+        package=__package__, fragment_glsl=("glossy_split_sum.glsl",),
         validate=validate, describe=describe, row_label=row_label,
         materials=frozenset({"pbr"}),
     ),
