@@ -4,7 +4,7 @@
 // at n.v = (i + 0.5) / size and roughness = (j + 0.5) / size, over N half vectors importance-sampled
 // with density D(h) n.h from the Hammersley set (i / N, radical inverse of i): phi = 2 pi u,
 // cos^2 = (1 - v) / (1 + (alpha^2 - 1) v), l = reflect(-v, h), samples with n.l <= 0 adding nothing.
-// The host #defines LUT_FORMAT (rg32f, rg16f or rg8: the stored precision, converted by imageStore) and
+// The host #defines LUT_FORMAT (rg32f, rg16f or rg8: the stored precision), LUT_F16 or LUT_U8 with it, and
 // VISIBILITY_SEPARABLE for glTF's separable Smith V instead of the height-correlated one.
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
 layout(LUT_FORMAT, binding = 0) uniform writeonly image2D table;
@@ -21,6 +21,22 @@ float visibility(float nl, float nv, float a2) {
     return 1.0 / ((nl + lam_l) * (nv + lam_v));
 #else
     return 0.5 / (nv * lam_l + nl * lam_v);
+#endif
+}
+
+// The value the stored format holds, rounded to nearest (ties to even) here: imageStore's own conversion is
+// the driver's choice (Mesa llvmpipe truncates to half floats), the engines' tables are rounded to nearest
+// (three.js' floatToHalf, numpy's float16). A rounded value converts exactly.
+vec2 quantise(vec2 x) {
+#if defined(LUT_F16)
+    // half floats: 10 mantissa bits, subnormal below 2^-14
+    vec2 e = max(floor(log2(max(abs(x), vec2(1e-30)))), vec2(-14.0));
+    vec2 step = exp2(e - 10.0);
+    return roundEven(x / step) * step;
+#elif defined(LUT_U8)
+    return roundEven(clamp(x, 0.0, 1.0) * 255.0) / 255.0;
+#else
+    return x;
 #endif
 }
 
@@ -51,5 +67,5 @@ void main() {
             B += fc * weight;
         }
     }
-    imageStore(table, g, vec4(4.0 * A / float(samples), 4.0 * B / float(samples), 0.0, 0.0));
+    imageStore(table, g, vec4(quantise(vec2(4.0 * A, 4.0 * B) / float(samples)), 0.0, 0.0));
 }

@@ -1,5 +1,5 @@
 """The split sum's DFG table on the GPU (dfg_lut.comp; dfg.py is its numpy mirror), computed once per scene
-and stored at the recipe's precision: rg32f, rg16f, or rg8 (unorm), the conversion imageStore's."""
+and stored at the recipe's precision: rg32f, rg16f, or rg8 (unorm), rounded to nearest in the shader."""
 
 from __future__ import annotations
 
@@ -13,6 +13,8 @@ from scenes.model.materials import PBR_MIN_ALPHA
 
 #: precision -> (image format in the shader, moderngl dtype, numpy dtype of a read-back)
 FORMATS = {"f32": ("rg32f", "f4", np.float32), "f16": ("rg16f", "f2", np.float16), "u8": ("rg8", "f1", np.uint8)}
+#: the shader's rounding to each format (dfg_lut.comp quantise)
+ROUNDING = {"f32": (), "f16": ("LUT_F16",), "u8": ("LUT_U8",)}
 
 
 class DFGTable:
@@ -32,7 +34,8 @@ class DFGTable:
         self.samples = samples
         self.precision = precision
         image_format, dtype, _ = FORMATS[precision]
-        defines = (f"LUT_FORMAT {image_format}", *(("VISIBILITY_SEPARABLE",) if visibility == "separable" else ()))
+        defines = (f"LUT_FORMAT {image_format}", *ROUNDING[precision],
+                   *(("VISIBILITY_SEPARABLE",) if visibility == "separable" else ()))
         self.prog = ctx.compute_shader(shader_source("dfg_lut.comp", defines, package=__package__))
         self.texture = ctx.texture((size, size), 2, dtype=dtype)
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
