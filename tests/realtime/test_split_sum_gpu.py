@@ -184,3 +184,26 @@ def test_rejects_a_source_of_another_size(probe):
     c.release()
     with pytest.raises(ValueError, match="one count per level"):
         GGXChain(get_context(), [mappings.Level(0.5, 8)], 32, [16, 16])
+
+
+@pytest.mark.parametrize(("name", "params"), [("checker", {"cells": 16}), ("sky", {"sun": 1e3, "sun_radius_deg": 3.0})])
+@pytest.mark.parametrize("roughness", [0.3, 0.6])
+def test_filtered_importance_sampling_beats_plain_sampling_at_16_samples(name, params, roughness):
+    """16 samples a texel: reading each at the level of its footprint (FIS, bias 0) trades aliasing for a
+    little blur; the rms error against the exact texel sum falls by more than 1.5x."""
+    f = EnvironmentFilter(get_context(), environments.builtin(name, params), 64)
+    f.fill_base(0.0)
+    f.build_chain()
+    try:
+        exact = ggx_convolve_numpy(f.read_level(0), cubemap.texel_directions(8).reshape(-1, 3), roughness)
+        exact = exact.reshape(6, 8, 8, 3)
+
+        def rms(bias):
+            got = chain_of([mappings.Level(roughness, 8)], f.cube, 16, bias)[0]
+            return float(np.sqrt(np.mean((got - exact) ** 2)))
+
+        plain, fis = rms(NO_FIS), rms(0.0)
+        print(f"{name} r={roughness}: rms error at 16 samples: plain {plain:.4g}, FIS {fis:.4g}")
+        assert fis < plain / 1.5
+    finally:
+        f.release()
