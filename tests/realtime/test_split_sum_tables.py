@@ -286,3 +286,24 @@ def test_an_object_reads_the_two_levels_around_its_lod():
     levels = mappings.chain_levels("linear", 256, 16)
     assert mappings.read_levels("linear", 0.3, levels, 256) == (1, 2, pytest.approx(0.2))
     assert mappings.read_levels("linear", 1.0, levels, 256) == (4, 4, 0.0)
+
+
+def test_the_exact_texel_sum_weighs_each_texel_by_d_n_dot_l_and_its_solid_angle():
+    """reference.ggx_texel_weights against D(h) (n.w) dOmega(w) written here (h = normalize(n + w),
+    D = alpha^2 / (pi ((n.h)^2 (alpha^2 - 1) + 1)^2)), normalised; zero below the horizon. A constant map's
+    texel sum is the constant."""
+    from realtime.techniques.split_sum.reference import ggx_convolve_numpy, ggx_texel_weights
+    from scenes.environment import cubemap
+
+    n = cubemap.texel_directions(4).reshape(-1, 3)[::5]
+    w = cubemap.texel_directions(8).reshape(-1, 3)
+    omega = np.tile(cubemap.texel_solid_angles(8).reshape(-1), 6)
+    for roughness in (0.2, 0.7):
+        alpha = max(roughness ** 2, MIN_ALPHA)
+        h = n[:, None, :] + w[None, :, :]
+        nh = np.sum(n[:, None, :] * h, axis=-1) / np.linalg.norm(h, axis=-1)
+        d = alpha ** 2 / (np.pi * (nh ** 2 * (alpha ** 2 - 1.0) + 1.0) ** 2)
+        k = d * np.maximum(n @ w.T, 0.0) * omega
+        np.testing.assert_allclose(ggx_texel_weights(8, n, roughness).reshape(len(n), -1),
+                                   k / k.sum(axis=1, keepdims=True), rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(ggx_convolve_numpy(np.full((6, 8, 8, 3), 2.5), n, 0.0), 2.5, rtol=1e-12)
