@@ -68,14 +68,14 @@ def test_other_names_find_nothing(text):
 
 def test_select_keeps_number_order_and_names_the_unknown():
     assert [m.NUMBER for m in registry.select(["E10", "e8", "E08"])] == [8, 10]
-    with pytest.raises(ValueError, match=r"'E12' is no experiment; valid: E1, E2, .*, E11"):
-        registry.select(["E8", "E12"])
+    with pytest.raises(ValueError, match=r"'E11' is no experiment; valid: E1, E2, .*, E10"):
+        registry.select(["E8", "E11"])
 
 
 def test_paper_only_with_an_unknown_name_exits_2_naming_the_flag_the_value_and_the_valid_ones(capsys, tmp_path):
-    assert main(["paper", "--quick", "--only", "E8,E13", "--out", str(tmp_path / "out")]) == 2
+    assert main(["paper", "--quick", "--only", "E8,E12", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error: argument --only: 'E13'") and "E1, E2" in err and "E11" in err
+    assert err.startswith("error: argument --only: 'E12'") and "E1, E2" in err and "E10" in err
     assert len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()  # refused before anything ran
 
