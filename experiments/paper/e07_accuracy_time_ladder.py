@@ -1,7 +1,8 @@
 """E7 of the paper suite: the accuracy-time ladder across real-time techniques.
 
-For each scene (sphere-diffuse, sphere-phong at N = 10, 100, 1000, sphere-blend, and sphere-sky with its
-1e4 sun for very high dynamic range) every technique
+For each scene (sphere-diffuse, sphere-phong at N = 10, 100, 1000, sphere-blend, sphere-sky with its
+1e4 sun for very high dynamic range, and the sphere in glTF's metallic-roughness material, whose ladder is
+the split sum's engine recipes) every technique
 the scene can use, at its main parameter, is one point: `psnr_unbiased` (the PSNR a noise-free
 reference would give, experiments.measure.metrics) against the frame's per-frame milliseconds (every
 per-frame key + draw). The path tracer's own spp ladder (experiments.measure.convergence) is drawn on the
@@ -47,6 +48,7 @@ class Settings:
     fis_biases: tuple[float, ...]  # extra rows at 64 samples: Filament's +1 level
     blend: tuple[tuple[dict, dict], ...]  # (diffuse overrides, glossy overrides)
     max_spp: int
+    split_sum_sizes: tuple[int, ...] = ()  # Khronos' recipe at these chain sizes, beside each recipe's own
 
 
 def sh_ov(order: int, window: str = "none") -> dict:
@@ -72,13 +74,19 @@ _BLEND = ((sh_ov(2), box_ov()), (sh_ov(2), box_ov(0.0, "mcguire")), (sh_ov(4), b
           (irr_ov(32, 32), pre_ov(256)), (irr_ov(32, 32), box_ov(0.0, "mcguire")))
 QUICK = Settings(sh=((2, "none"), (3, "none"), (4, "none"), (4, "hanning")), irradiance=((16, 16), (32, 32)),
                        box_biases=(0.0, 2.0, 4.0), samples=(16, 64, 256), fis_biases=(), blend=_BLEND[:6],
-                       max_spp=1024)
+                       max_spp=1024, split_sum_sizes=(32,))
 FULL = Settings(sh=((2, "none"), (2, "hanning"), (3, "none"), (3, "hanning"), (4, "none"), (4, "hanning")),
                       irradiance=((16, 16), (32, 32), (64, 32), (32, 64)),
                       box_biases=(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0), samples=(16, 64, 256, 1024),
                       fis_biases=(1.0,), blend=_BLEND,
-                      max_spp=4096)
+                      max_spp=4096, split_sum_sizes=(32, 64, 128))
 EXPONENTS = (10.0, 100.0, 1000.0)
+#: glTF's metallic-roughness material on E7's sphere: its ladder is the split sum's engine recipes
+PBR_LABEL = "sphere-pbr (glTF, metallic 0.5, roughness 0.3)"
+PBR_SPHERE = {"objects.0.material": {"type": "pbr", "base_color": [0.9, 0.64, 0.54], "metallic": 0.5,
+                                     "roughness": 0.3},
+              "realtime.glossy": "split_sum"}
+SPLIT_SUM_RECIPES = ("khronos", "filament", "threejs", "babylon")
 
 
 def scene_list() -> list[tuple[str, str, dict]]:
@@ -87,6 +95,7 @@ def scene_list() -> list[tuple[str, str, dict]]:
     out += [(f"sphere-phong N={n:g}", "builtin:sphere-phong", {"objects.*.material.exponent": n}) for n in EXPONENTS]
     out.append(("sphere-blend", "builtin:sphere-blend", {}))
     out.append(("sphere-sky (sun 1e4)", "builtin:sphere-sky", {}))  # a very high dynamic range map
+    out.append((PBR_LABEL, "builtin:sphere-blend", PBR_SPHERE))  # glTF's material, the split sum's recipes
     return out
 
 
@@ -114,6 +123,13 @@ def configs_for(label: str, s: Settings, plugins: list[tuple[str, dict]] = ()) -
     plugin techniques of the scene's effect (`plugins`, from `plugin_points`)."""
     if label == "sphere-diffuse":
         builtin = [sh_ov(o, w) for o, w in s.sh] + [irr_ov(a, b) for a, b in s.irradiance]
+    elif label == PBR_LABEL:
+        # each recipe at its own chain size, and Khronos' at the chain sizes of a real-time budget; every
+        # frame prefilters the whole chain, so fewer timed frames than the other rows
+        few = {"realtime.timing_frames": 5, "realtime.warmup_frames": 1}
+        builtin = ([{"realtime.split_sum.recipe": r, **few} for r in SPLIT_SUM_RECIPES]
+                   + [{"realtime.split_sum.recipe": "khronos", "realtime.split_sum.size": n, **few}
+                      for n in s.split_sum_sizes])
     elif label.startswith("sphere-phong"):
         builtin = ([box_ov(b) for b in s.box_biases] + [box_ov(0.0, "mcguire")] + [pre_ov(n) for n in s.samples]
                    + [pre_ov(64, b) for b in s.fis_biases])

@@ -34,7 +34,7 @@ from experiments.measure import comparison, convergence
 from experiments.measure.results import ResultRow
 from experiments.publish import images
 from experiments.publish.text import one_line
-from groundtruth.pathtracer import paper_bsdf
+from groundtruth.pathtracer import gltf_pbr_bsdf, paper_bsdf
 from realtime.engine import technique
 from realtime.engine.context import renderer_name
 from scenes.environment import light_array
@@ -90,9 +90,11 @@ def scene_content(scene, reference_only: bool = False) -> dict:
 
 
 def content_id(scene, reference_only: bool = False) -> str:
-    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION and the reference plugin's version."""
-    text = json.dumps({"row": ROW_VERSION, "plugin": paper_bsdf.PLUGIN_VERSION,
-                       "scene": scene_content(scene, reference_only)}, sort_keys=True, default=str)
+    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION and the reference plugins' versions."""
+    content = {"row": ROW_VERSION, "plugin": paper_bsdf.PLUGIN_VERSION, "scene": scene_content(scene, reference_only)}
+    if any(o.material.type == "pbr" for o in scene.objects):  # absent without one: earlier rows keep their ids
+        content["gltf_pbr_plugin"] = [gltf_pbr_bsdf.PLUGIN_VERSION, gltf_pbr_bsdf.SMITH]
+    text = json.dumps(content, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 

@@ -10,9 +10,11 @@
   points left, see camera.py); `hdrfilm` RGBA with a box filter (the default gaussian blurs).
 - Objects: `mi.Mesh` built from the same float32 vertices, normals and indices the real-time side
   draws (never Mitsuba's analytic sphere, whose silhouette differs from a mesh).
-- Materials: `reference.model = "paper"` uses the `iblcheck_paper` plugin (the same reflectance);
-  `"physical"` maps to Mitsuba's own `diffuse` or `roughplastic` (see `physical_material`). Both are
-  one-sided (black seen from behind the shading normal); `material.two_sided` wraps them in `twosided`.
+- Materials: `reference.model = "paper"` uses the material's exact BSDF: the `iblcheck_paper` plugin
+  (the paper's reflectance) and, for a glTF "pbr" material, the `iblcheck_gltf_pbr` plugin (glTF 2.0's
+  Appendix B); `"physical"` maps to Mitsuba's own `diffuse`, `roughconductor`, `roughplastic` or, for
+  "pbr", `principled` (see `physical_material`). All are one-sided (black seen from behind the shading
+  normal); `material.two_sided` wraps them in `twosided`.
 - Integrator (docs/contract.md section 4): no occlusion -> direct lighting only (`path` with max_depth 2:
   emitter sampling and BSDF sampling with MIS); occlusion -> full path tracing with
   `reference.max_depth`; an explicit `reference.integrator` overrides.
@@ -24,7 +26,7 @@ import math
 
 import numpy as np
 
-from groundtruth.pathtracer import paper_bsdf
+from groundtruth.pathtracer import gltf_pbr_bsdf, paper_bsdf
 from scenes.environment import light_array
 from scenes.environment.directions import rotation_y
 from scenes.model import materials
@@ -68,8 +70,11 @@ def physical_material(material) -> dict:
 
     diffuse -> `diffuse`; phong -> `roughconductor` with a perfectly reflecting ks tint (a
     Fresnel-free GGX lobe, as the paper's phong has F = 1); blend -> `roughplastic` (GGX coat
-    over a diffuse base) with alpha from the exponent and `int_ior` from f0.
+    over a diffuse base) with alpha from the exponent and `int_ior` from f0; pbr -> `principled`
+    (`principled_material`).
     """
+    if material.type == "pbr":
+        return principled_material(material)
     fresnel = materials.of(material).fresnel
     if fresnel == "zero":
         return {"type": "diffuse", "reflectance": {"type": "rgb", "value": list(material.kd)}}
@@ -83,10 +88,36 @@ def physical_material(material) -> dict:
             "specular_reflectance": {"type": "rgb", "value": list(material.ks)}}
 
 
+def principled_material(material) -> dict:
+    """Mitsuba's `principled` for a glTF "pbr" material: the same base_color, metallic and roughness, and
+    `specular = 0.5` (Disney's F0 = 0.08 specular = 0.04, glTF's dielectric F0, ior 1.5).
+
+    This is Disney's model (Burley 2012, 2015), not glTF's: its diffuse lobe has Disney's retro-reflection
+    and Fresnel-shaped grazing terms instead of Lambert times (1 - F(v.h)), the dielectric's specular
+    takes the full dielectric Fresnel instead of Schlick's, and its masking is Smith's separable form. A
+    "physical" reference of a pbr material therefore measures a technique against another BRDF; the exact
+    one is `reference.model = "paper"`. roughness is clamped below at sqrt(PBR_MIN_ALPHA) so that
+    roughness 0 is the same sharpest lobe as glTF's (alpha = roughness^2 in both).
+    """
+    return {"type": "principled", "base_color": {"type": "rgb", "value": [float(c) for c in material.base_color]},
+            "metallic": float(material.metallic),
+            "roughness": max(float(material.roughness), materials.PBR_MIN_ALPHA ** 0.5),
+            "specular": 0.5, "spec_tint": 0.0, "sheen": 0.0, "clearcoat": 0.0, "spec_trans": 0.0,
+            "anisotropic": 0.0}
+
+
+def exact_material(material) -> dict:
+    """The material's own BSDF: glTF's for a "pbr" material, the paper's for the paper's types."""
+    if material.type == "pbr":
+        return gltf_pbr_bsdf.material_dict(material)
+    return paper_bsdf.material_dict(material)
+
+
 def bsdf_dict(scene, material) -> dict:
     """The material's BSDF: one-sided, or wrapped in Mitsuba's `twosided` for `material.two_sided`
-    (scenes/model/materials.py: the real-time shader flips the normal there)."""
-    inner = paper_bsdf.material_dict(material) if scene.reference.model == "paper" else physical_material(material)
+    (scenes/model/materials.py: the real-time shader flips the normal there). `reference.model = "paper"`
+    means the material's exact BSDF (`exact_material`), `"physical"` Mitsuba's stand-in."""
+    inner = exact_material(material) if scene.reference.model == "paper" else physical_material(material)
     return {"type": "twosided", "bsdf": inner} if material.two_sided else inner
 
 
@@ -140,6 +171,7 @@ def light_array_emitters(scene, env: np.ndarray) -> dict:
 def build(mi, scene, env: np.ndarray, spp: int, seed: int, hide_emitters: bool = False):
     """The loaded `mi.Scene` (the reference when hide_emitters is False, the coverage pass when True)."""
     paper_bsdf.register(mi)
+    gltf_pbr_bsdf.register(mi)
     tree = {"type": "scene", "integrator": integrator_dict(scene, hide_emitters),
             "sensor": sensor_dict(mi, scene, spp, seed)}
     if scene.reference.lighting == "light_array":

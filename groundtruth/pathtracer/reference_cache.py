@@ -6,8 +6,9 @@ Location: `$IBLCHECK_CACHE`, default `~/.cache/iblcheck`; one entry per key, `<k
   environment's radiance bytes (so the file's bytes, scale and builtin parameters), its rotation,
   the camera, every object's mesh arrays and material, the reference settings (spp, seed,
   integrator as resolved, model, max_depth), the Mitsuba variant and version, and the plugin
-  version; with `reference.lighting = "light_array"`, the array's placement, count and a digest of
-  its directions and powers (the array itself, so a change of the placement code cannot serve a
+  version (for a scene with a glTF "pbr" material also the `iblcheck_gltf_pbr` plugin's version and
+  Smith form); with `reference.lighting = "light_array"`, the array's placement, count and a digest
+  of its directions and powers (the array itself, so a change of the placement code cannot serve a
   stale entry). Real-time settings and tone mapping are not in it: a LOD bias or face size hits the
   same entry.
 - Writes are atomic: a temporary file in the same folder, then `os.replace`. Each entry holds a
@@ -26,6 +27,7 @@ import warnings
 
 import numpy as np
 
+from groundtruth.pathtracer import gltf_pbr_bsdf
 from scenes.environment import light_array
 from scenes.model import materials
 from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, locked, write_npz
@@ -49,6 +51,8 @@ def reference_key(scene, env: np.ndarray, spp: int, seed: int, variant: str, mit
         "max_depth": ref.max_depth if integrator == "path" else 2,
         "variant": variant, "mitsuba": mitsuba_version, "plugin": plugin_version,
     }
+    if any(o.material.type == "pbr" for o in scene.objects):  # (absent without one: earlier entries keep their keys)
+        desc["gltf_pbr_plugin"] = [gltf_pbr_bsdf.PLUGIN_VERSION, gltf_pbr_bsdf.SMITH]
     if ref.lighting != "environment":  # (absent for the environment: earlier entries keep their keys)
         lights = scene.realtime.lights
         desc["lighting"] = [ref.lighting, lights.placement, lights.count,
