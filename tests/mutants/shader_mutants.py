@@ -237,6 +237,18 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "* albedo * done_E[k];", "VCT: injection without 1/pi"),
     ("realtime/techniques/vct/vct_inject.comp", "L = (W * NORMAL_SCALE / W_max) * albedo",
      "L = (W * NORMAL_SCALE) * albedo", "VCT: injection without the W_max normalisation"),
+    ("realtime/techniques/split_sum/prefilter_ggx.comp", "* n_dot_l;\n        weight += n_dot_l;",
+     ";\n        weight += 1.0;", "split sum: the prefilter's samples not weighted by n.l"),
+    ("realtime/techniques/split_sum/glossy_split_sum.glsl", "textureLod(split_sum_level_hi, r, 0.0).rgb, split_sum_t)",
+     "textureLod(split_sum_level_hi, r, 0.0).rgb, 1.0 - split_sum_t)", "split sum: the two levels' mix swapped"),
+    ("realtime/techniques/split_sum/glossy_split_sum.glsl", "vec3 F_avg = F0 + (1.0 - F0) / 21.0;\n    return FssEss",
+     "vec3 F_avg = F0 + (1.0 - F0) / 20.0;\n    return FssEss", "split sum: Fdez-Aguera's F_avg with /20"),
+    ("realtime/techniques/split_sum/glossy_split_sum.glsl", "split_sum_fresnel(vec3(PBR_DIELECTRIC_F0), n_dot_v)",
+     "split_sum_fresnel(base_color, n_dot_v)", "split sum: the dielectric's F0 taken from base_color"),
+    ("realtime/shaders/shade.frag", "split_sum_lobes(n_dot_v, base_color / PI * E, G, Ld, Lg);",
+     "split_sum_lobes(n_dot_v, base_color * E, G, Ld, Lg);", "split sum: the Lambert term without 1/pi"),
+    ("realtime/techniques/split_sum/glossy_split_sum.glsl", "Ld = (1.0 - metallic) * (1.0 - F_d) * diffuse;",
+     "Ld = (1.0 - metallic) * diffuse;", "split sum: the dielectric's diffuse not weighted by 1 - F"),
 ]
 
 GL_TESTS = ["tests/realtime", "tests/hard"]
