@@ -31,11 +31,12 @@ from functools import lru_cache
 
 import numpy as np
 
-from groundtruth.exact import raycast
+from groundtruth.exact import gltf_brdf, raycast
 from groundtruth.exact.reflectance import face_viewer, lobe_weights, phong_lobe, reflect
 from scenes import InputError
 from scenes.environment import envmap
 from scenes.environment.directions import TWO_PI, normalize, rotation_y, uv_to_direction
+from scenes.model import materials
 from scenes.model.render import Render
 
 MIN_WIDTH, MAX_WIDTH = 128, 4096
@@ -228,6 +229,288 @@ def _glossy_lobe_frame(env: np.ndarray, r: np.ndarray, normals: np.ndarray, expo
     return out
 
 
+# --------------------------------------------------------------------------- glTF metallic-roughness (type "pbr")
+#
+# f (n.l) = [f0 (1 - w) + w] K + kd (1 - w)(n.l) / pi with K = V D (n.l), w = (1 - v.h)^5 (gltf_brdf.py): three
+# scalar kernels of l per shading point, none a function of one axis. Each is summed over cells as
+# T(mu) sum K L dw / sum K dw, T its directional albedo (A, B or Lambert, tabulated from gltf_brdf's deterministic
+# rule): a constant environment gives T(mu) exactly, and the cells only decide how the kernel weighs the
+# environment. The sums run in float32 with the radiance's fourth column 1, so that numerator and denominator
+# are one product and a constant environment stays exact.
+#
+# GGX's tail falls as 1/psi^4 away from the peak (psi the angle from r): ~1% of a roughness-0.1 lobe lies beyond
+# 10 degrees, and a sun there shows, so no cap may cut it. The specular sum runs instead over nested equirect
+# grids (widths W0 = 2^ceil(log2(8 pi / alpha)) down to SPEC_MIN_WIDTH; a cell of width W/2 holds four of width
+# W): per point a cell of width W is used where it lies TILE of its own cells or more from r while its parent
+# lies within TILE of the parent's cells (every cell of the finest grid whose parent does; every cell of the
+# coarsest beyond TILE). Each point of the sphere lies in exactly one used cell, a cell is at most psi / TILE
+# across (the tail's own scale is psi / 4), and a point costs ~3 pi TILE^2 cells per grid.
+# Below alpha ~ 8 pi / MAX_WIDTH the peak is narrower than the finest grid resolves: there the lobe within
+# theta_h < 2 theta_core of n is integrated in its own frame (gltf_brdf.half_vector_rule: the GGX CDF, the horizon
+# cut exactly) against the bilinear environment, weighted by a smooth g(theta_h) whose 1 - g the finest grid takes.
+
+SPEC_MIN_WIDTH = 32
+TILE = 6
+#: Gauss-Legendre nodes (in x, in the azimuth) of the lobe-frame core and of its blend into the finest grid
+CORE_NODES = ((6, 12), (3, 8))
+#: shading points x cells per batch
+PAIRS = 1 << 20
+
+
+def ggx_width(alpha: float) -> int:
+    """Finest grid width for a GGX lobe: cells at most alpha / 4 across (the peak's log-slope in l is ~1 / alpha)."""
+    need = 8.0 * math.pi / alpha
+    return int(min(MAX_WIDTH, max(SPEC_MIN_WIDTH, 2 ** math.ceil(math.log2(need)))))
+
+
+def ggx_needs_lobe_frame(alpha: float) -> bool:
+    return 8.0 * math.pi / alpha > MAX_WIDTH
+
+
+def shade_pbr(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> np.ndarray:
+    """Outgoing radiance (P, 3) of a glTF metallic-roughness material (see `shade`)."""
+    normals, lit = face_viewer(material, normals, views)
+    mu = np.sum(normals * views, axis=1)
+    sel = lit & (mu > 0)
+    out = np.zeros((len(normals), 3))
+    if not sel.any():
+        return out
+    n, v, m = normals[sel], views[sel], np.minimum(mu[sel], 1.0)
+    alpha = materials.pbr_alpha(material.roughness)
+    f0, kd = gltf_brdf.colour_weights(material.base_color, material.metallic)
+    table_a, table_b = gltf_brdf.dfg_interpolated(m, alpha)
+    mean_a, mean_b = _ggx_means(env, n, v, m, alpha)
+    res = f0 * (table_a[:, None] * mean_a) + table_b[:, None] * mean_b
+    if materials.has_diffuse(material):
+        mean_d = _lambert_mean(env, n, v)
+        res = res + kd * (gltf_brdf.lambert_interpolated(m)[:, None] * mean_d)
+    out[sel] = res
+    return out
+
+
+@lru_cache(maxsize=8)
+def _values4_cached(env_bytes: bytes, shape: tuple, width: int, doubled: bool) -> np.ndarray:
+    grid = _grid_cached(env_bytes, shape, width)
+    out = np.ones((grid.h, 2 * grid.w if doubled else grid.w, 4), dtype=np.float32)
+    out[:, :grid.w, :3] = grid.values
+    if doubled:
+        out[:, grid.w:, :3] = grid.values
+    return out.reshape(-1, 4)
+
+
+def _values4(env: np.ndarray, width: int, doubled: bool = False) -> np.ndarray:
+    """A cell grid's values as float32 (H W, 4), the fourth column 1 (each sum's own denominator); `doubled`:
+    each row twice over (H 2W, 4), so that a column index j + c with j, c < W needs no wrapping."""
+    env = np.ascontiguousarray(env, dtype=np.float32)
+    return _values4_cached(env.tobytes(), env.shape, width, doubled)
+
+
+def _dots(a: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """a (P, 3) . d (K, 3) -> (P, K), elementwise (a product with 3 inner terms is slow in BLAS)."""
+    return a[:, 0:1] * d[None, :, 0] + a[:, 1:2] * d[None, :, 1] + a[:, 2:3] * d[None, :, 2]
+
+
+def _lambert_mean(env: np.ndarray, n: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """sum (n.l)(1 - w) L dw / sum (n.l)(1 - w) dw over the cells above each point's horizon (P, 3), on the
+    DIFFUSE_WIDTH grid (the paper's irradiance grid), points grouped by normal as `_integrate` does."""
+    grid = cell_grid(env, DIFFUSE_WIDTH)
+    vals4 = _values4(env, DIFFUSE_WIDTH)
+    flat_dirs = grid.dirs.reshape(-1, 3).astype(np.float32)
+    flat_omega = np.repeat(grid.omega, grid.w).astype(np.float32)
+    n32, v32 = n.astype(np.float32), v.astype(np.float32)
+    out = np.zeros((len(n), 3))
+    for idx in _chunks(n):
+        a = n[idx]
+        centre = normalize(a.mean(axis=0))
+        if not np.any(centre):
+            centre = a[0]
+        spread = float(np.arccos(np.clip(a @ centre, -1, 1)).max())
+        cells = grid.cap(centre, 0.5 * np.pi + spread + 2.0 * np.pi / grid.w)
+        d = flat_dirs[cells]
+        nl = _dots(n32[idx], d)
+        x = 1.0 - np.sqrt(np.maximum(0.5 + 0.5 * _dots(v32[idx], d), 0.0))
+        x2 = x * x
+        k = np.maximum(nl, 0.0) * (1.0 - x2 * x2 * x) * flat_omega[cells][None, :]
+        s = k @ vals4[cells]
+        out[idx] = s[:, :3] / np.maximum(s[:, 3:4].astype(np.float64), 1e-300)
+    return out
+
+
+def _ggx_means(env: np.ndarray, n: np.ndarray, v: np.ndarray, mu: np.ndarray,
+               alpha: float) -> tuple[np.ndarray, np.ndarray]:
+    """(sum K (1 - w) L / sum K (1 - w), sum K w L / sum K w) per point (P, 3) each: the grids and the core."""
+    r = normalize(2.0 * mu[:, None] * n - v)
+    acc = np.zeros((len(n), 2, 4))  # per kernel: sum K L (3), sum K
+    core = ggx_needs_lobe_frame(alpha)
+    theta_core = 4.0 * TWO_PI / MAX_WIDTH if core else 0.0  # 1 - g rises over [1, 2] theta_core: 8 cells in l
+    if core:
+        _ggx_core(env, n, v, mu, alpha, theta_core, acc)
+    widths = []
+    w = ggx_width(alpha)
+    while w >= SPEC_MIN_WIDTH:
+        widths.append(w)
+        w //= 2
+    for j, width in enumerate(widths):
+        _ggx_level(env, width, n, v, r, mu, alpha, acc, finest=j == 0, coarsest=j == len(widths) - 1,
+                   theta_core=theta_core if j == 0 else 0.0)
+    ok = acc[:, :, 3] > 0
+    means = acc[:, :, :3] / np.where(ok, acc[:, :, 3], 1.0)[..., None]
+    if not ok.all():  # a lobe with no cell above the horizon (mu ~ 0): its albedo times L(r)
+        means = np.where(ok[..., None], means, envmap.lookup(env, r).astype(np.float64)[:, None, :])
+    return means[:, 0], means[:, 1]
+
+
+def _core_blend(cos_t: np.ndarray, sin_t: np.ndarray, theta_core: float) -> np.ndarray:
+    """g(theta_h): 1 up to theta_core, 0 from 2 theta_core, smoothstep between (C1)."""
+    t = np.clip(np.arctan2(sin_t, cos_t) / theta_core - 1.0, 0.0, 1.0)
+    return 1.0 - t * t * (3.0 - 2.0 * t)
+
+
+def _ggx_core(env: np.ndarray, n: np.ndarray, v: np.ndarray, mu: np.ndarray, alpha: float, theta_core: float,
+              acc: np.ndarray) -> None:
+    """Adds int K g L dl and int K g dl (g = `_core_blend`) by the lobe-frame rule, per kernel (1 - w, w)."""
+    t1 = v - mu[:, None] * n
+    t1_len = np.linalg.norm(t1, axis=1)
+    helper = np.where(np.abs(n[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
+    t1 = np.where((t1_len > 1e-12)[:, None], t1 / np.maximum(t1_len, 1e-300)[:, None],
+                  normalize(np.cross(helper, n)))  # v = n: the lobe is symmetric, any tangent
+    t2 = np.cross(n, t1)
+    for (lo, hi), (n_w, n_phi) in zip(((0.0, theta_core), (theta_core, 2.0 * theta_core)), CORE_NODES, strict=True):
+        for i in range(0, len(n), 4096):
+            sl = slice(i, i + 4096)
+            rule = gltf_brdf.half_vector_rule(mu[sl], alpha, lo, hi, n_w, n_phi)
+            f = gltf_brdf.lobe_integrand(rule, mu[sl], alpha)
+            weight = rule["weight"] * f["k"]
+            if lo > 0:
+                weight = weight * _core_blend(rule["cos_t"], rule["sin_t"], theta_core)
+            p, k = np.nonzero(weight > 0)  # the empty pieces (most points see no horizon) cost no lookups
+            loc = f["l"][p, k]
+            world = loc[:, 0:1] * t1[sl][p] + loc[:, 1:2] * t2[sl][p] + loc[:, 2:3] * n[sl][p]
+            radiance = envmap.lookup(env, world).astype(np.float64)
+            wk = weight[p, k]
+            rows = p + i
+            for c, part in enumerate((wk * (1.0 - f["w"][p, k]), wk * f["w"][p, k])):
+                acc[:, c, 3] += np.bincount(rows, part, minlength=len(n))
+                for ch in range(3):
+                    acc[:, c, ch] += np.bincount(rows, part * radiance[:, ch], minlength=len(n))
+
+
+@lru_cache(maxsize=16)
+def _grid_dirs(width: int) -> np.ndarray:
+    """Cell-centre directions (H, W, 3) of a width-`width` cell grid (CellGrid.dirs without the environment)."""
+    h = width // 2
+    return uv_to_direction(((np.arange(width) + 0.5) / width)[None, :], ((np.arange(h) + 0.5) / h)[:, None])
+
+
+@lru_cache(maxsize=8192)
+def _stencil(width: int, row: int, inner: float, outer: float) -> tuple[np.ndarray, ...]:
+    """The cells of a width-`width` grid whose centres lie between `inner` and `outer` (rad) of the centre of cell
+    (row, 0): (rows, cols, directions (K, 3) float32, parent directions (2, K, 3) float32 for a point in an even /
+    odd column, in the frame that turns that column onto column 0)."""
+    h = width // 2
+    dirs = _grid_dirs(width)
+    centre = dirs[row, 0]
+    theta = (np.arange(h) + 0.5) * (np.pi / h)
+    theta_c = theta[row]
+    rows = np.nonzero(np.abs(theta - theta_c) <= outer + 1e-9)[0]
+    # the azimuth half-width of the cap on each row (CellGrid.cap's formula), a little wide; exact test below
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x = ((math.cos(outer + 1e-9) - np.cos(theta[rows]) * math.cos(theta_c))
+             / (np.sin(theta[rows]) * math.sin(theta_c)))
+    full = ~(x > -1.0)  # NaN (a pole) or the whole row
+    half = np.arccos(np.clip(x, -1.0, 1.0))
+    phi_c = np.pi / width
+    j0 = np.where(full, 0, np.ceil((phi_c - half) * width / TWO_PI - 0.5)).astype(np.int64)
+    j1 = np.where(full, width - 1, np.floor((phi_c + half) * width / TWO_PI - 0.5)).astype(np.int64)
+    j1 = np.minimum(j1, j0 + width - 1)
+    length = np.maximum(j1 - j0 + 1, 0)
+    rr = np.repeat(rows, length)
+    cc = (np.repeat(j0, length) + np.arange(length.sum()) - np.repeat(np.cumsum(length) - length, length)) % width
+    c = dirs[rr, cc] @ centre
+    keep = (c >= math.cos(outer)) & ((c <= math.cos(inner)) if inner > 0 else True)
+    rr, cc = rr[keep], cc[keep]
+    d = dirs[rr, cc]
+    half_w = width // 2
+    v_par = (rr // 2 + 0.5) / (h // 2) if h >= 2 else np.full(len(rr), 0.5)
+    parents = np.stack([uv_to_direction((cc // 2 + 0.5) / half_w, v_par),
+                        uv_to_direction(((cc + 1) // 2 + 0.5) / half_w - 1.0 / width, v_par)])
+    return rr, cc, d.astype(np.float32), parents.astype(np.float32)
+
+
+def _ggx_level(env: np.ndarray, width: int, n: np.ndarray, v: np.ndarray, r: np.ndarray, mu: np.ndarray,
+               alpha: float, acc: np.ndarray, finest: bool, coarsest: bool, theta_core: float) -> None:
+    """Adds the used cells of the width-`width` grid (see the section comment) to each point's sums.
+
+    Points are grouped by the grid row holding r; each is turned about +Y so that its column is column 0, and
+    its group shares one stencil of cells (their directions, and their parents' for even / odd columns): only the
+    cell values are gathered per point. float32: sin^2(theta_h) comes from |n x (v + l)|^2, free of the
+    cancellation of 1 - (n.h)^2 at a sharp peak."""
+    grid = cell_grid(env, width)
+    # one 16-byte item per cell: np.take of those is ~5x faster than indexing the (N, 4) float32 rows
+    cells16 = _values4(env, width, doubled=True).view(np.complex128).reshape(-1)
+    cell = TWO_PI / width
+    tau = TILE * cell  # this grid's cells are used from here out (unless it is the finest) ...
+    tau_parent = 2.0 * tau  # ... while their parent lies within this (unless it is the coarsest)
+    inner = 0.0 if finest else max(tau - cell, 0.0)  # r lies within cell / sqrt(2) of its cell's centre
+    outer = np.pi if coarsest else tau_parent + 3.0 * cell  # and a parent's centre 2 cell / sqrt(2) from a child's
+    theta_r = np.arccos(np.clip(r[:, 1], -1.0, 1.0))
+    phi_r = np.arctan2(r[:, 0], -r[:, 2]) % TWO_PI
+    row = np.minimum((theta_r / np.pi * grid.h).astype(np.int64), grid.h - 1)
+    col = np.minimum((phi_r / cell).astype(np.int64), width - 1)
+    cd, sd = np.cos(col * cell), np.sin(col * cell)
+
+    def turn(a: np.ndarray) -> np.ndarray:  # about +Y by -col * cell: column col -> column 0
+        return np.stack([a[:, 0] * cd + a[:, 2] * sd, a[:, 1], a[:, 2] * cd - a[:, 0] * sd], axis=1)
+
+    nt, vt, rt = turn(n), turn(v), turn(r)
+    nxv = np.cross(nt, vt).astype(np.float32)
+    nt, vt, rt = nt.astype(np.float32), vt.astype(np.float32), rt.astype(np.float32)
+    mu2 = (2.0 * mu).astype(np.float32)
+    mu32 = mu.astype(np.float32)
+    cos_tau, cos_parent = np.float32(math.cos(tau)), np.float32(math.cos(tau_parent))
+    key = row * 2 + (col & 1)
+    order = np.argsort(key, kind="stable")
+    starts = np.flatnonzero(np.r_[True, key[order][1:] != key[order][:-1]])
+    ends = np.r_[starts[1:], len(order)]
+    for a, b in zip(starts, ends, strict=True):
+        members = order[a:b]
+        i0, parity = divmod(int(key[members[0]]), 2)
+        rows, cols, d, parents = _stencil(width, i0, inner, float(outer))
+        if len(rows) == 0:
+            continue
+        omega = grid.omega[rows].astype(np.float32)
+        offset = rows * (2 * width) + cols
+        step = max(1, PAIRS // len(rows))
+        for s in range(0, len(members), step):
+            p = members[s:s + step]
+            nl = _dots(nt[p], d)
+            vl = _dots(vt[p], d)
+            mask = nl > 0
+            if not finest:  # r.l = 2 mu n.l - v.l
+                mask &= mu2[p][:, None] * nl - vl <= cos_tau
+            if not coarsest:
+                mask &= _dots(rt[p], parents[parity]) > cos_parent
+            # sin^2(theta_h) = |n x (v + l)|^2 / |v + l|^2, |v + l|^2 = 2 (1 + v.l)
+            q, e = nt[p], nxv[p]
+            cx = e[:, 0:1] + (q[:, 1:2] * d[None, :, 2] - q[:, 2:3] * d[None, :, 1])
+            sin2 = cx * cx
+            cx = e[:, 1:2] + (q[:, 2:3] * d[None, :, 0] - q[:, 0:1] * d[None, :, 2])
+            sin2 += cx * cx
+            cx = e[:, 2:3] + (q[:, 0:1] * d[None, :, 1] - q[:, 1:2] * d[None, :, 0])
+            sin2 += cx * cx
+            sin2 *= 0.5 / np.maximum(1.0 + vl, 1e-30)
+            np.minimum(sin2, 1.0, out=sin2)
+            k, w = gltf_brdf.kernels(mu32[p][:, None], nl, vl, alpha, sin2_h=sin2)
+            if theta_core > 0:
+                k *= 1.0 - _core_blend(np.sqrt(1.0 - sin2), np.sqrt(sin2), theta_core)
+            k *= np.where(mask, omega[None, :], np.float32(0.0))
+            kk = np.empty((len(p), 2, len(rows)), dtype=np.float32)
+            np.multiply(k, w, out=kk[:, 1])
+            np.subtract(k, kk[:, 1], out=kk[:, 0])
+            vals = np.take(cells16, offset[None, :] + col[p][:, None], mode="clip")
+            acc[p] += kk @ vals.view(np.float32).reshape(len(p), len(rows), 4)
+
+
 # --------------------------------------------------------------------------- rendering
 
 
@@ -237,6 +520,8 @@ def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> 
     `env` is the (H, W, 3) map; normals and views are in its own (unrotated) frame, views pointing
     from the surface towards the camera.
     """
+    if material.type == "pbr":
+        return shade_pbr(material, env, normals, views)
     normals, lit = face_viewer(material, normals, views)
     n_dot_v = (normals * views).sum(axis=1)
     wd, wg = lobe_weights(material, n_dot_v)
