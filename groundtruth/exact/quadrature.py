@@ -1,4 +1,5 @@
-"""The noise-free reference: the paper's reflectance integrated over the environment by quadrature.
+"""The noise-free reference: the paper's reflectance (and glTF's, type "pbr") integrated over the environment
+by quadrature.
 
     groundtruth.exact.quadrature.render(scene, subpixels=4) -> Render
 
@@ -21,6 +22,10 @@ itself: a constant environment is reproduced exactly, the horizon loss is kept.
 Lobes narrower than the finest grid can resolve (N > ~2.6e4) are integrated in the lobe's own
 frame instead (Gauss-Legendre in t = cos^(N+1) alpha, uniform in phi), where the bilinear
 environment is smooth. No occlusion: exact for one convex object (docs/contract.md section 4).
+
+The glTF metallic-roughness material (gltf_brdf.py) has no kernel of one axis; its section below says how it is
+summed: per point, over nested grids whose cells grow with the distance from the mirror direction (GGX's tail is
+too heavy for a cap), normalised by its albedos A, B and Lambert tabulated from gltf_brdf's deterministic rule.
 """
 
 from __future__ import annotations
@@ -251,6 +256,7 @@ def _glossy_lobe_frame(env: np.ndarray, r: np.ndarray, normals: np.ndarray, expo
 
 SPEC_MIN_WIDTH = 32
 TILE = 6
+#: near grazing a point's finest grid is that of min(alpha, GRAZING mu) (see `_ggx_sums`)
 GRAZING = 1.0
 #: Gauss-Legendre nodes (in x, in the azimuth) of the lobe-frame core and of its blend into the finest grid
 CORE_NODES = ((6, 12), (3, 8))
