@@ -1,4 +1,5 @@
-"""The noise-free reference: the paper's reflectance integrated over the environment by quadrature.
+"""The noise-free reference: the paper's reflectance (and glTF's, type "pbr") integrated over the environment
+by quadrature.
 
     groundtruth.exact.quadrature.render(scene, subpixels=4) -> Render
 
@@ -21,6 +22,10 @@ itself: a constant environment is reproduced exactly, the horizon loss is kept.
 Lobes narrower than the finest grid can resolve (N > ~2.6e4) are integrated in the lobe's own
 frame instead (Gauss-Legendre in t = cos^(N+1) alpha, uniform in phi), where the bilinear
 environment is smooth. No occlusion: exact for one convex object (docs/contract.md section 4).
+
+The glTF metallic-roughness material (gltf_brdf.py) has no kernel of one axis; its section below says how it is
+summed: per point, over nested grids whose cells grow with the distance from the mirror direction (GGX's tail is
+too heavy for a cap), normalised by its albedos A, B and Lambert tabulated from gltf_brdf's deterministic rule.
 """
 
 from __future__ import annotations
@@ -251,6 +256,8 @@ def _glossy_lobe_frame(env: np.ndarray, r: np.ndarray, normals: np.ndarray, expo
 
 SPEC_MIN_WIDTH = 32
 TILE = 6
+#: near grazing a point's finest grid is that of min(alpha, GRAZING mu) (see `_ggx_sums`)
+GRAZING = 1.0
 #: Gauss-Legendre nodes (in x, in the azimuth) of the lobe-frame core and of its blend into the finest grid
 CORE_NODES = ((6, 12), (3, 8))
 #: shading points x cells per batch
@@ -340,24 +347,39 @@ def _ggx_means(env: np.ndarray, n: np.ndarray, v: np.ndarray, mu: np.ndarray,
                alpha: float) -> tuple[np.ndarray, np.ndarray]:
     """(sum K (1 - w) L / sum K (1 - w), sum K w L / sum K w) per point (P, 3) each: the grids and the core."""
     r = normalize(2.0 * mu[:, None] * n - v)
-    acc = np.zeros((len(n), 2, 4))  # per kernel: sum K L (3), sum K
-    core = ggx_needs_lobe_frame(alpha)
-    theta_core = 4.0 * TWO_PI / MAX_WIDTH if core else 0.0  # 1 - g rises over [1, 2] theta_core: 8 cells in l
-    if core:
-        _ggx_core(env, n, v, mu, alpha, theta_core, acc)
-    widths = []
-    w = ggx_width(alpha)
-    while w >= SPEC_MIN_WIDTH:
-        widths.append(w)
-        w //= 2
-    for j, width in enumerate(widths):
-        _ggx_level(env, width, n, v, r, mu, alpha, acc, finest=j == 0, coarsest=j == len(widths) - 1,
-                   theta_core=theta_core if j == 0 else 0.0)
+    acc = _ggx_sums(env, n, v, r, mu, alpha)
     ok = acc[:, :, 3] > 0
     means = acc[:, :, :3] / np.where(ok, acc[:, :, 3], 1.0)[..., None]
     if not ok.all():  # a lobe with no cell above the horizon (mu ~ 0): its albedo times L(r)
         means = np.where(ok[..., None], means, envmap.lookup(env, r).astype(np.float64)[:, None, :])
     return means[:, 0], means[:, 1]
+
+
+def _ggx_sums(env: np.ndarray, n: np.ndarray, v: np.ndarray, r: np.ndarray, mu: np.ndarray,
+              alpha: float) -> np.ndarray:
+    """(P, 2, 4): per kernel K (1 - w), K w the sums of K L (3 channels) and of K (the quadrature's own
+    estimate of A and B) over the core and the used cells of every grid."""
+    acc = np.zeros((len(n), 2, 4))
+    core = ggx_needs_lobe_frame(alpha)
+    theta_core = 4.0 * TWO_PI / MAX_WIDTH if core else 0.0  # 1 - g rises over [1, 2] theta_core: 8 cells in l
+    if core:
+        _ggx_core(env, n, v, mu, alpha, theta_core, acc)
+    # near grazing K = V D (n.l) changes over n.l ~ mu at the horizon (V ~ 1 / (2 alpha (mu + n.l)) for
+    # n.l << alpha), which the lobe's own scale alpha does not see: those points take the grid of min(alpha, mu)
+    finest = np.array([ggx_width(a) for a in np.minimum(alpha, GRAZING * np.maximum(mu, 1e-6))])
+    for w0 in np.unique(finest):
+        sel = np.flatnonzero(finest == w0)
+        widths = []
+        w = int(w0)
+        while w >= SPEC_MIN_WIDTH:
+            widths.append(w)
+            w //= 2
+        sub = np.zeros((len(sel), 2, 4))
+        for j, width in enumerate(widths):
+            _ggx_level(env, width, n[sel], v[sel], r[sel], mu[sel], alpha, sub, finest=j == 0,
+                       coarsest=j == len(widths) - 1, theta_core=theta_core if j == 0 else 0.0)
+        acc[sel] += sub
+    return acc
 
 
 def _core_blend(cos_t: np.ndarray, sin_t: np.ndarray, theta_core: float) -> np.ndarray:
