@@ -50,6 +50,8 @@ METALLIC = (0.0, 0.5, 1.0)
 RECIPES = ("khronos", "filament", "threejs", "babylon")
 BASELINE = "khronos"
 FURNACE = {"environment.map": "builtin:constant", "objects.*.material.base_color": [1.0, 1.0, 1.0]}
+#: recipes whose mean scores are closer than this are called tied (a tenth of a dB is no visible difference)
+TIE_DB = 0.1
 FIG_RECIPES = "figures/e11_recipes.png"
 FIG_PARTS = "figures/e11_parts.png"
 FIG_FURNACE = "figures/e11_furnace.png"
@@ -288,9 +290,12 @@ def section(context: Context, s: Settings, recipe_scores, recipe_rows, part_scor
 def summarize(s: Settings, recipe_scores, part_scores, names: list[str], furnace: Furnace) -> list[str]:
     out = []
     mean_db = {rc: np.mean([recipe_scores[(p, rc)].psnr for p in s.probes]) for rc in RECIPES}
-    best = max(mean_db, key=mean_db.get)
+    ranked = sorted(mean_db, key=mean_db.get, reverse=True)
+    tied = [rc for rc in ranked if mean_db[ranked[0]] - mean_db[rc] < TIE_DB]
+    verdict = (f"{tied[0]} is closest to the exact integral on average" if len(tied) == 1 else
+               f"{', '.join(tied)} tie within {TIE_DB:g} dB")
     out.append("Mean dB over every sphere and probe: " + ", ".join(f"{rc} {v:.2f}" for rc, v in mean_db.items())
-               + f"; {best} is closest to the exact integral on average.")
+               + f"; {verdict}.")
     for k, r in enumerate(ROUGHNESS):
         per = {rc: np.mean([recipe_scores[(p, rc)].psnr[:, k] for p in s.probes]) for rc in RECIPES}
         top = max(per, key=per.get)
