@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from scenes import SceneError
-from scenes.model.scene import SCHEMA, from_dict
+from scenes.model.scene import MATERIAL_KEYS, SCHEMA, from_dict
 
 
 def bad_values(text: str) -> list:
@@ -17,7 +17,7 @@ def bad_values(text: str) -> list:
         return [3, 0, 1 << 20, 2.0]
     if text.startswith("one of"):
         return ["no-such-choice", 1]
-    if text == "true or false":
+    if text.startswith("true or false"):  # also `or "recipe"` (the split sum's recipe-default keys)
         return [1, "yes"]
     if text == "a non-empty string":
         return ["", 3]
@@ -31,6 +31,9 @@ def tree_with(section: str, key: str, value) -> tuple[dict, str]:
         tree["objects"][0][key] = value
         return tree, f"objects[0].{key}"
     if section == "material":
+        if key in MATERIAL_KEYS["pbr"] - MATERIAL_KEYS["blend"]:  # a glTF key: on a material of its own type
+            tree["objects"][0]["material"]["type"] = "pbr"
+            tree["realtime"] = {"glossy": "split_sum"}
         tree["objects"][0]["material"][key] = value
         return tree, f"objects[0].material.{key}"
     node = tree
