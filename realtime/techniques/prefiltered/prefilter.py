@@ -28,24 +28,13 @@ import numpy as np
 
 from realtime.engine import limits
 from realtime.engine.gpu import groups, shader_source
+from realtime.engine.low_discrepancy import radical_inverse_base2
 from realtime.engine.readback import read_cube_level
 from scenes.environment import cubemap
 
 #: texture unit the source cube is bound to while the levels are written (a sampler object of its
 #: own sets trilinear filtering there, and is unbound afterwards)
 SOURCE_UNIT = 7
-
-
-def radical_inverse_base2(i: np.ndarray) -> np.ndarray:
-    """Van der Corput sequence: the bits of i mirrored about the binary point (i < 2^32)."""
-    i = np.asarray(i, dtype=np.uint64)
-    out = np.zeros(i.shape, dtype=np.float64)
-    scale = 0.5
-    for _ in range(32):
-        out += (i & np.uint64(1)).astype(np.float64) * scale
-        i = i >> np.uint64(1)
-        scale *= 0.5
-    return out
 
 
 def phong_samples(exponent: float, samples: int, base_size: int) -> np.ndarray:

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from realtime.engine.low_discrepancy import hammersley
 from scenes.model.materials import PBR_MIN_ALPHA
 
 VISIBILITIES = ("height_correlated", "separable")
@@ -52,25 +53,6 @@ def visibility(n_dot_l, n_dot_v, alpha, kind: str = "height_correlated") -> np.n
     if kind == "separable":
         return 1.0 / ((nl + lam_l) * (nv + lam_v))
     raise ValueError(f"visibility must be one of {', '.join(VISIBILITIES)}, got {kind!r}")
-
-
-def radical_inverse(i) -> np.ndarray:
-    """Van der Corput's radical inverse in base 2: the 32 bits of i mirrored about the binary point."""
-    i = np.asarray(i, dtype=np.uint64) & np.uint64(0xFFFFFFFF)
-    out = np.zeros(i.shape, dtype=np.float64)
-    scale = 0.5
-    for _ in range(32):
-        out += (i & np.uint64(1)).astype(np.float64) * scale
-        i = i >> np.uint64(1)
-        scale *= 0.5
-    return out
-
-
-def hammersley(n: int) -> tuple[np.ndarray, np.ndarray]:
-    """The engines' Hammersley set (i / n, radical inverse of i), i = 0 .. n - 1 (Khronos' hammersley2d,
-    Filament's hammersley, three.js' and Babylon's hammersley: the same two coordinates)."""
-    i = np.arange(n)
-    return i / n, radical_inverse(i)
 
 
 def importance_half_vectors(alpha, n: int) -> tuple[np.ndarray, np.ndarray]:
