@@ -13,6 +13,9 @@ $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
+	@# Blender's Cycles (bpy, ~1 GB) for the engine comparisons: wheels exist for CPython 3.11 only; without
+	@# it the Cycles tests and E12's Cycles rows say why they are absent
+	$(PY) -m pip install --quiet -e '.[engines]' || echo "warning: bpy (Blender/Cycles) did not install; the Cycles tests will skip"
 	touch $(STAMP)
 
 # Debian packages: libLLVM 19 for Mitsuba's llvm variant (Debian 12's LLVM 15 aborts)

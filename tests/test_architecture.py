@@ -5,7 +5,7 @@ second, independent check written from scratch: it reads every module of the fou
 takes every import (inside functions too, where cycles used to hide), resolves relative imports and
 `from package import submodule`, and asks
 - for no cycle among modules (strongly connected components of one module), and
-- that `realtime` and `groundtruth` import neither each other nor `experiments`, and `scenes` none of them.
+- that `realtime`, `groundtruth` and `engines` import neither each other nor `experiments`, and `scenes` none of them.
 A negative control plants a cycle and a forbidden import in a throwaway package and requires both found.
 """
 
@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("scenes", "realtime", "groundtruth", "experiments")
+PACKAGES = ("scenes", "realtime", "groundtruth", "engines", "experiments")
 
 
 def modules_under(root: Path, packages: tuple[str, ...]) -> dict[str, Path]:
@@ -112,9 +112,10 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 #: package -> the top-level packages it must never import
-FORBIDDEN = {"scenes": {"realtime", "groundtruth", "experiments"},
-             "realtime": {"groundtruth", "experiments"},
-             "groundtruth": {"realtime", "experiments"}}
+FORBIDDEN = {"scenes": {"realtime", "groundtruth", "engines", "experiments"},
+             "realtime": {"groundtruth", "engines", "experiments"},
+             "groundtruth": {"realtime", "engines", "experiments"},
+             "engines": {"realtime", "groundtruth", "experiments"}}
 
 
 def forbidden_imports(graph: dict[str, set[str]]) -> list[tuple[str, str]]:
