@@ -27,7 +27,8 @@ SIZE = 40
 ENGINE = textwrap.dedent("""
     import json, sys, time
     import numpy as np
-        args = dict(zip(sys.argv[1::2], sys.argv[2::2]))
+    from scenes.storage import imageio
+    args = dict(zip(sys.argv[1::2], sys.argv[2::2]))
     side = json.load(open(args["--sidecar"]))
     w, h = side["image"]["width"], side["image"]["height"]
     fault = args.get("--fault", "")
@@ -134,9 +135,9 @@ def test_iblcheck_itself_as_a_command_engine_scores_exactly_as_iblcheck_compare(
     """The engine is `iblcheck render` of the same scene (an EXR with alpha = coverage): its comparison through
     the command route must give the metrics the direct route gives, to the last bit."""
     overrides = {"camera.width": SIZE, "camera.height": SIZE, "reference.spp": 64}
-    direct = scenes.load("builtin:sphere-blend").with_overrides(overrides)
+    direct = scenes.load("builtin:sphere-diffuse").with_overrides(overrides)
     sets = " ".join(f"--set {k}={v}" for k, v in overrides.items())
-    template = f"{{python}} -m experiments.cli render builtin:sphere-blend {sets} -o {{output}}"
+    template = f"{{python}} -m experiments.cli render builtin:sphere-diffuse {sets} -o {{output}}"
     via_command = direct.with_overrides({"realtime.renderer": "command", "realtime.command.template": template})
     a = comparison.run(direct).metrics
     b = comparison.run(via_command).metrics
