@@ -98,6 +98,14 @@ def content_id(scene, reference_only: bool = False) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def image_row_id(scene, image: Path, encoding: str, tonemap: str, exposure: float, label: str) -> str:
+    """The id of an engine image's row (experiments/runs/image_manifest.py): the scene's content id, the
+    image file's SHA-256, how it is read and its label."""
+    content = {"scene": content_id(scene), "image_sha256": file_digest(str(image)), "encoding": encoding,
+               "tonemap": tonemap, "exposure": exposure, "label": label}
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
+
+
 def row_id(scene_spec: str, overrides: dict) -> str:
     """The content id of the row (scene_spec, overrides)."""
     scene = scenes.load(scene_spec)
