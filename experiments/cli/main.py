@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from experiments.cli import compare_image_cmd, image_manifest_cmd, render_cmd
+from experiments.cli import compare_image_cmd, export_cmd, image_manifest_cmd, render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
 from experiments.measure.results import folder_lock
 from experiments.paper import registry
@@ -155,6 +155,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep.add_argument("dir")
     rep.set_defaults(func=_cmd_report)
 
+    export_cmd.add_parser(sub)
+    sub.choices["export"].set_defaults(func=_cmd_export)
+
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
                         description="Run the paper's experiments E1 ... E10 in number order into OUT. Rows already "
                                     "in OUT/results.jsonl are reused, never computed again (an interrupted run "
@@ -206,6 +209,10 @@ def add_cluster_options(parser: argparse.ArgumentParser) -> None:
 
 def _cmd_render(args: argparse.Namespace) -> int:
     return render_cmd.run(args)
+
+
+def _cmd_export(args: argparse.Namespace) -> int:
+    return export_cmd.run(args)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:

@@ -63,7 +63,7 @@ def build(scene, nearest: bool = False) -> tuple[Builder, list[dict], list[str]]
     so a refusal writes nothing."""
     b = Builder()
     objects, warns = [], []
-    converted = [gltf_materials.to_gltf(o.material, f"object_{i}", f"objects[{i}]", nearest)
+    converted = [gltf_materials.to_gltf(o.material, f"object_{i}", f"{scene.path}: objects[{i}]", nearest)
                  for i, o in enumerate(scene.objects)]
     for i, (obj, (mat, how, diff)) in enumerate(zip(scene.objects, converted, strict=True)):
         mesh = obj.mesh
