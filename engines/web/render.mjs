@@ -122,6 +122,7 @@ async function main() {
       const timings = {
         engine: result.engine, version: result.version, frame_ms: result.frame_ms, precompute_ms: result.precompute_ms,
         median_frame_ms: result.median_frame_ms, load_ms: result.load_ms, first_frame_ms: result.first_frame_ms,
+        ...(result.ready_ms !== undefined ? { ready_ms: result.ready_ms } : {}),
         startup_ms: startupMs, total_ms: performance.now() - t0,
         browser: await browser.version(),
         notes: `CPU times (SwiftShader, no GPU); ${result.notes}`,

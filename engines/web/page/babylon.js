@@ -33,6 +33,10 @@ const ROTATION_SIGN = -1;
 // HDRCubeTexture's panorama-to-cube conversion puts the map a quarter turn away from three.js's equirectUv (the
 // glTF viewers' convention of the export); measured by the orientation test, undone here as a rotation about +Y.
 const PANORAMA_TURN = Math.PI / 2;
+// Babylon turns the panorama into cube faces on the CPU by nearest texel, with the texel centred at c / W rather
+// than (c + 0.5) / W (Misc/HighDynamicRange/panoramaToCubemap.js: Math.round(u * W)); the skybox gets four times
+// the finer faces so that magnified backgrounds are less blocky (the half-texel offset stays).
+const SKY_FACE_SCALE = 4;
 
 function loadHdrCube(url, scene, size, prefilter) {
   return new Promise((ok, fail) => {
@@ -75,7 +79,7 @@ export async function render(cfg) {
   const p0 = performance.now();
   const env = await loadHdrCube(`/scene/${cfg.environment.file}`, scene, face, true);
   const precomputeMs = performance.now() - p0;
-  const sky = await loadHdrCube(`/scene/${cfg.environment.file}`, scene, face, false);
+  const sky = await loadHdrCube(`/scene/${cfg.environment.file}`, scene, Math.min(2048, SKY_FACE_SCALE * face), false);
   env.rotationY = theta;
   sky.rotationY = theta;
   env.level = cfg.environment.intensity;
@@ -113,7 +117,9 @@ export async function render(cfg) {
     samplingMode: Constants.TEXTURE_NEAREST_SAMPLINGMODE, generateDepthBuffer: true, generateStencilBuffer: false,
   });
   camera.outputRenderTarget = target;
+  const r0 = performance.now();
   await scene.whenReadyAsync();
+  const readyMs = performance.now() - r0;
 
   const one = new Float32Array(4);
   const finish = async () => { await target.readPixels(0, 0, one, true, false, 0, 0, 1, 1); };
@@ -134,11 +140,11 @@ export async function render(cfg) {
   return {
     width: W, height: H, rgb: packRgb(rgba, W, H),
     engine: "Babylon.js", version: Engine.Version,
-    frame_ms: frameMs, precompute_ms: precomputeMs, load_ms: loadMs, first_frame_ms: firstFrameMs,
+    frame_ms: frameMs, precompute_ms: precomputeMs, load_ms: loadMs, first_frame_ms: firstFrameMs, ready_ms: readyMs,
     median_frame_ms: median(frameMs),
     notes: `WebGL: ${glRenderer}; materials: ${materials}; environment: HDRCubeTexture of face ${face} ` +
       "with Babylon's GGX prefiltering (precompute_ms: the HDR decode, the CPU equirect-to-cube conversion and the " +
       "prefiltering), diffuse from spherical harmonics; right-handed scene; image processing deferred to a post-process never attached (linear, unclamped); " +
-      "background: a skybox of the unfiltered cube",
+      "background: a skybox of the unfiltered cube; ready_ms: scene.whenReadyAsync (shader compilation)",
   };
 }
