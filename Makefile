@@ -10,9 +10,19 @@ CYCLES_VENV  := .venv-cycles
 CYCLES_STAMP := $(CYCLES_VENV)/.installed
 BPY_VERSION  := 5.0.1
 
-.PHONY: setup test test-fast paper lint clean system-deps mutation shader-mutants
+.PHONY: setup web-engines test test-fast paper lint clean system-deps mutation shader-mutants
 
-setup: $(STAMP) system-deps $(CYCLES_STAMP)
+setup: $(STAMP) system-deps $(CYCLES_STAMP) web-engines
+
+# three.js, Babylon.js and puppeteer-core for the web engines (engines/web), reinstalled when the lock changes;
+# best effort: without npm (Debian's nodejs/npm) or the registry, the browser tests skip and say why
+WEB_STAMP := engines/web/node_modules/.installed
+web-engines: system-deps
+	@if [ -f $(WEB_STAMP) ] && [ $(WEB_STAMP) -nt engines/web/package-lock.json ]; then :; \
+	elif command -v npm >/dev/null; then \
+		npm ci --prefix engines/web --no-audit --no-fund --loglevel=error && touch $(WEB_STAMP) \
+		|| echo "warning: npm ci --prefix engines/web failed; the three.js/Babylon.js engines and their tests are unavailable" >&2; \
+	else echo "warning: npm is missing (Debian's nodejs npm); the three.js/Babylon.js engines and their tests are unavailable" >&2; fi
 
 $(CYCLES_STAMP):
 	@$(PYTHON) -m venv $(CYCLES_VENV) && $(CYCLES_VENV)/bin/python -m pip install --quiet bpy==$(BPY_VERSION) \
