@@ -13,7 +13,11 @@ node tree with the bpy module it is given.
   gives glTF's alpha with iblcheck's floor. Exact.
 - other `pbr` -> Principled BSDF (GGX, single scattering) with base_color, metallic, roughness as above,
   IOR 1.5, Specular IOR Level 0.5 (F0 = 0.04), white specular tint, no coat, sheen, subsurface,
-  transmission or emission. Nearest, not exact (`PRINCIPLED_DIFFERENCE`).
+  transmission or emission. With metallic 1 it is exact: the Principled metal's Fresnel is the F82-tint
+  model (Kutz et al. 2021, OpenPBR's metal), F = Schlick(base_color) - cos (1 - cos)^6 (1 - tint) * c, which
+  with a white tint is Schlick's of base_color, glTF's metal (a copper sphere agrees with Mitsuba's glTF
+  BSDF within noise, tests/engines/test_cycles.py). With metallic < 1 it is the nearest, not exact
+  (`PRINCIPLED_DIFFERENCE`).
 - `phong`, `blend` (the paper's lobes) -> rejected: Cycles has no normalised-Phong closure.
 
 One-sided (iblcheck's default, `two_sided` false): black where the shading normal faces away from the
@@ -37,9 +41,9 @@ PBR_MIN_ALPHA = 0.045 ** 2
 PRINCIPLED_DIFFERENCE = (
     "Cycles' Principled BSDF, not glTF's BRDF: its dielectric specular takes the exact dielectric Fresnel of "
     "IOR 1.5 instead of Schlick's F0 = 0.04 + 0.96 (1 - v.h)^5, and its diffuse base is scaled by one minus the "
-    "specular layer's directional albedo (energy-conserving layering) instead of glTF's (1 - F(v.h)); the metal "
-    "takes the F82-tint Fresnel, which with a white tint is Schlick's of base_color; single-scattering GGX "
-    "(distribution GGX) as glTF")
+    "specular layer's directional albedo (energy-conserving layering) instead of glTF's (1 - F(v.h)), so it "
+    "reflects less than glTF's dielectric (which gains energy at grazing angles); the metal part (F82-tint "
+    "Fresnel with a white tint = Schlick's of base_color, single-scattering GGX) is glTF's")
 
 
 @dataclass(frozen=True)
@@ -87,6 +91,8 @@ def choose(material: dict, where: str) -> Choice:
         roughness = blender_roughness(_number(material, "roughness", where))
         if metallic == 1.0 and color == (1.0, 1.0, 1.0):
             return Choice("glossy", color, metallic, roughness, two_sided, True, "")
+        if metallic == 1.0:
+            return Choice("principled", color, metallic, roughness, two_sided, True, "")
         return Choice("principled", color, metallic, roughness, two_sided, False, PRINCIPLED_DIFFERENCE)
     if kind in ("phong", "blend"):
         raise SceneRejected(f"{where}.type = {kind!r}: Cycles has no closure of the paper's normalised Phong lobe "
