@@ -21,10 +21,10 @@ node tree with the bpy module it is given.
 - `phong`, `blend` (the paper's lobes) -> rejected: Cycles has no normalised-Phong closure.
 
 One-sided (iblcheck's default, `two_sided` false): black where the shading normal faces away from the
-viewer (n.v <= 0) or the ray meets the back of a face: a Mix Shader between the BSDF and a black one by
-max(Backfacing, [N . I < 0]) with the Geometry node's N and I (I points to the viewer). `two_sided` true:
-the bare BSDF, which Cycles shades from both sides with the normal flipped towards the viewer (Mitsuba's
-`twosided`).
+viewer (n.v < 0; n.v = 0 has measure zero) or the ray meets the back of a face: a Mix Shader between the
+BSDF and a black one by max(Backfacing, [N . I < 0]) with the Geometry node's N and I (I points to the
+viewer). `two_sided` true: the bare BSDF, which Cycles shades from both sides with the normal flipped
+towards the viewer (Mitsuba's `twosided`).
 """
 
 from __future__ import annotations
