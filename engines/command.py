@@ -25,6 +25,7 @@ its word, so a path with spaces stays one argument. How it ends:
 
 from __future__ import annotations
 
+import os
 import shlex
 import subprocess
 import sys
@@ -32,10 +33,10 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
-from scenes.exchange.export import export_scene
 
 from engines import engine_timings
 from scenes import InputError, MissingCapability
+from scenes.exchange.export import export_scene
 from scenes.model.render import Render
 from scenes.storage import imageio
 
@@ -95,10 +96,19 @@ def _tail(data: bytes) -> str:
     return text if len(text) <= STDERR_TAIL else "..." + text[-STDERR_TAIL:]
 
 
+def engine_environment() -> dict[str, str]:
+    """This process's environment with the repository first on PYTHONPATH: a bridge run by another Python
+    (Cycles' own venv) imports its package from the repository, whatever the working directory."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (str(REPO), env.get("PYTHONPATH", "")) if p)
+    return env
+
+
 def run(argv: list[str], timeout_s: float, origin: str) -> subprocess.CompletedProcess:
     """Run the engine; map how it ended to the exceptions of the module docstring."""
     try:
-        done = subprocess.run(argv, capture_output=True, timeout=timeout_s, check=False, stdin=subprocess.DEVNULL)
+        done = subprocess.run(argv, capture_output=True, timeout=timeout_s, check=False, stdin=subprocess.DEVNULL,
+                              env=engine_environment())
     except FileNotFoundError:
         raise MissingCapability(f"{origin}: the engine's program {argv[0]!r} was not found",
                                 hint="install it or fix the command (`make setup` installs the builtin bridges)") \

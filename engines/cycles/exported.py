@@ -62,6 +62,8 @@ class Export:
     #: Mitsuba's max_depth of the reference (path segments; 2 = direct lighting): the sidecar's optional
     #: `reference.max_depth`, else the scene default
     max_depth: int
+    #: the reference's samples per pixel (the sidecar's optional `reference.spp`), the bridge's default --spp
+    spp: int | None = None
 
 
 def _get(tree: dict, key: str, path: Path, kind: type | tuple = (int, float)):
@@ -114,11 +116,14 @@ def read(sidecar: str | Path) -> Export:
     max_depth = reference.get("max_depth", DEFAULT_MAX_DEPTH) if isinstance(reference, dict) else None
     if not isinstance(max_depth, int) or isinstance(max_depth, bool) or max_depth < 2:
         raise SceneRejected(f"{path}: key reference.max_depth = {short_repr(max_depth)} is not an integer >= 2")
+    spp = reference.get("spp") if isinstance(reference, dict) else None
+    if spp is not None and (not isinstance(spp, int) or isinstance(spp, bool) or spp < 1):
+        raise SceneRejected(f"{path}: key reference.spp = {short_repr(spp)} is not a positive integer")
     gltf_path = folder / _get(tree, "gltf", path, str)
     return Export(sidecar=path, view=view, environment=folder / _get(env, "environment.file", path, str),
                   rotation_y_deg=float(_get(env, "environment.rotation_y_deg", path)),
                   intensity=float(_get(env, "environment.intensity", path)),
-                  objects=tuple(_objects(tree, gltf_path, path)), max_depth=max_depth)
+                  objects=tuple(_objects(tree, gltf_path, path)), max_depth=max_depth, spp=spp)
 
 
 def read_input(path: Path, kind: str, limit: int, error: type[Exception] = SceneRejected) -> bytes:

@@ -33,7 +33,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--sidecar", required=True, type=Path, help="the export's iblcheck-export.json")
     p.add_argument("--output", required=True, type=Path, help="the OpenEXR image to write")
     p.add_argument("--timings", type=Path, help="a JSON file for the engine's timings")
-    p.add_argument("--spp", type=int, default=DEFAULT_SPP, help=f"samples per pixel (default {DEFAULT_SPP})")
+    p.add_argument("--spp", type=int, default=None,
+                   help=f"samples per pixel (default: the sidecar's reference.spp, else {DEFAULT_SPP})")
     p.add_argument("--seed", type=int, default=0, help="Cycles' seed (default 0)")
     p.add_argument("--max-bounces", type=int, default=None,
                    help="Cycles' max_bounces (default: the sidecar's reference.max_depth - 2)")
@@ -128,14 +129,15 @@ def write_json(path: Path, data: dict) -> None:
 def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     try:
-        if args.spp < 1:
+        if args.spp is not None and args.spp < 1:
             raise SceneRejected(f"--spp = {args.spp} is not a positive number of samples")
         if args.max_bounces is not None and args.max_bounces < 0:
             raise SceneRejected(f"--max-bounces = {args.max_bounces} is negative")
         bpy = import_bpy()
         export = exported.read(args.sidecar)
         bounces = settings.bounces(export.max_depth) if args.max_bounces is None else args.max_bounces
-        timings = render(bpy, export, args.output, args.spp, args.seed, bounces, args.threads)
+        spp = args.spp or export.spp or DEFAULT_SPP
+        timings = render(bpy, export, args.output, spp, args.seed, bounces, args.threads)
         if args.timings:
             write_json(args.timings, timings)
     except (SceneRejected, EngineMissing) as exc:

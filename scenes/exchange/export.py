@@ -105,6 +105,11 @@ def sidecar_document(scene, objects: list[dict], camera_node: int, camera_json: 
                   "row_order": "top row first", "output": sidecar.OUTPUT, "exposure": 1.0,
                   "background": "the environment"},
         "objects": objects,
+        # how the path-traced reference is rendered, for a path tracer that renders the export (Cycles): samples,
+        # seed and Mitsuba's max_depth (path segments; the direct integrator is max_depth 2, and with a single
+        # convex object the two integrators agree)
+        "reference": {"spp": scene.reference.spp, "seed": scene.reference.seed,
+                      "max_depth": 2 if scene.reference.integrator == "direct" else scene.reference.max_depth},
         "iblcheck": {"version": version, "content_id": content_id},
     }
 
