@@ -3,19 +3,27 @@ PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
+# Blender's Cycles (PyPI bpy, ~1 GB) in a virtual environment of its own: bpy pins numpy < 2, which must not
+# change the numbers of iblcheck's own venv. engines/cycles/ runs in it as a command. Wheels exist for CPython
+# 3.11 only; without it the Cycles tests and E12's Cycles rows say why they are absent.
+CYCLES_VENV  := .venv-cycles
+CYCLES_STAMP := $(CYCLES_VENV)/.installed
+BPY_VERSION  := 5.0.1
 
 .PHONY: setup test test-fast paper lint clean system-deps mutation shader-mutants
 
-setup: $(STAMP) system-deps
+setup: $(STAMP) system-deps $(CYCLES_STAMP)
+
+$(CYCLES_STAMP):
+	@$(PYTHON) -m venv $(CYCLES_VENV) && $(CYCLES_VENV)/bin/python -m pip install --quiet bpy==$(BPY_VERSION) \
+		&& touch $(CYCLES_STAMP) \
+		|| echo "warning: bpy $(BPY_VERSION) (Blender/Cycles) did not install for $$($(PYTHON) --version); the Cycles tests will skip"
 
 # the virtual environment, rebuilt when pyproject.toml changes
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[dev]'
-	@# Blender's Cycles (bpy, ~1 GB) for the engine comparisons: wheels exist for CPython 3.11 only; without
-	@# it the Cycles tests and E12's Cycles rows say why they are absent
-	$(PY) -m pip install --quiet -e '.[engines]' || echo "warning: bpy (Blender/Cycles) did not install; the Cycles tests will skip"
 	touch $(STAMP)
 
 # Debian packages: libLLVM 19 for Mitsuba's llvm variant (Debian 12's LLVM 15 aborts)
@@ -41,7 +49,7 @@ lint: setup
 	$(VENV)/bin/ruff check .
 
 clean:
-	rm -rf $(VENV) .pytest_cache build *.egg-info
+	rm -rf $(VENV) $(CYCLES_VENV) .pytest_cache build *.egg-info
 
 # Mutation testing of the core numerical modules (mutmut, configured in pyproject.toml [tool.mutmut]); slow,
 # not in CI. Runs in a scratch copy of the working tree under build/ (git-ignored), so the tree itself is never

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import scenes
 from experiments.publish.outputs import UsageError  # defined below the CLI: the output checks raise it
+from scenes.exchange.fidelity import read_scenario
 from scenes.model.scene import parse_literal
 
 
@@ -21,7 +23,8 @@ def parse_sets(items: list[str] | None) -> dict[str, str]:
 
 
 def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
-    scene = scenes.load(spec)
+    """A scene file, builtin:NAME or a glTF Render Fidelity scenario (.json), with `--set` overrides."""
+    scene = read_scenario(spec) if Path(spec).suffix.lower() == ".json" else scenes.load(spec)
     overrides = parse_sets(sets)
     if sanitize:
         overrides["environment.sanitize"] = True

@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from experiments.cli import render_cmd
+from experiments.cli import compare_image_cmd, export_cmd, image_manifest_cmd, render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
 from experiments.measure.results import folder_lock
 from experiments.paper import registry
@@ -34,7 +34,7 @@ from experiments.publish import outputs, report
 from experiments.publish.text import comparison_table, one_line
 from experiments.runs import gate, sweep
 from scenes import InputError, MissingCapability
-from scenes.model import technique_registry
+from scenes.model import technique_registry, tone_operators
 from scenes.model.scene import SCHEMA
 
 EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
@@ -98,10 +98,17 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--set", action="append", metavar="K=V")
     c.add_argument("--json", action="store_true")
     c.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
+    c.add_argument("--image", metavar="FILE", help="score this engine's image instead of iblcheck's real-time render")
+    c.add_argument("--image-encoding", choices=["linear", "srgb"], help="linear radiance (EXR/PFM/HDR, the default "
+                   "for those) or tone-mapped sRGB (PNG/JPEG: must be named, with --tonemap)")
+    c.add_argument("--tonemap", choices=list(tone_operators.NAMES), help="the operator the engine applied (srgb)")
+    c.add_argument("--exposure", type=tolerance("--exposure", positive=True), help="the engine's exposure (srgb)")
     c.set_defaults(func=_cmd_compare)
 
     s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
-    s.add_argument("scenes", nargs="+")
+    s.add_argument("scenes", nargs="*")
+    s.add_argument("--images", metavar="MANIFEST", help="append one row per engine image the TOML/JSON manifest "
+                   "lists (scene, image, encoding, tonemap, exposure, label) instead of sweeping")
     s.add_argument("--face-sizes", default="8,16,32,64")
     s.add_argument("--lod-biases", default="-1,0,1,2")
     s.add_argument("--exponents", help="comma-separated Phong exponents (glossy scenes only)")
@@ -120,7 +127,9 @@ def build_parser() -> argparse.ArgumentParser:
     s.set_defaults(func=_cmd_sweep)
 
     g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
-    g.add_argument("scenes", nargs="+")
+    g.add_argument("scenes", nargs="*")
+    g.add_argument("--images", metavar="MANIFEST", help="gate each engine image the TOML/JSON manifest lists "
+                   "against its scene's reference (baseline key: scene + label)")
     g.add_argument("--min-psnr", type=threshold("min_psnr"))
     g.add_argument("--min-ssim", type=threshold("min_ssim"))
     g.add_argument("--max-flip", type=threshold("max_flip"))
@@ -145,6 +154,9 @@ def build_parser() -> argparse.ArgumentParser:
     rep = sub.add_parser("report", help="regenerate DIR/index.html from DIR/results.jsonl")
     rep.add_argument("dir")
     rep.set_defaults(func=_cmd_report)
+
+    export_cmd.add_parser(sub)
+    sub.choices["export"].set_defaults(func=_cmd_export)
 
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
                         description="Run the paper's experiments E1 ... E10 in number order into OUT. Rows already "
@@ -199,7 +211,13 @@ def _cmd_render(args: argparse.Namespace) -> int:
     return render_cmd.run(args)
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    return export_cmd.run(args)
+
+
 def _cmd_compare(args: argparse.Namespace) -> int:
+    if args.image or args.image_encoding or args.tonemap or args.exposure is not None:
+        return compare_image_cmd.run(args)
     scene = load_scene(args.scene, args.set, args.sanitize)
     with outputs.progress("compare", 4) as step:
         result = gate.measure(scene, step, noise=False).metrics
@@ -217,6 +235,8 @@ def _warn_broken_plugins() -> None:
 
 
 def _cmd_sweep(args: argparse.Namespace) -> int:
+    if args.images or not args.scenes:
+        return image_manifest_cmd.sweep_images(args)
     if args.technique_axes:
         _warn_broken_plugins()
     axes = sweep.Axes(face_sizes=parse_list(args.face_sizes, int, "--face-sizes"),
@@ -232,6 +252,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_gate(args: argparse.Namespace) -> int:
+    if args.images or not args.scenes:
+        return image_manifest_cmd.gate_images(args)
     cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
     tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
                   "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
@@ -281,7 +303,7 @@ def _cmd_paper(args: argparse.Namespace) -> int:
 #: options whose value is a list that may start with a minus sign (`--lod-biases -1,0,1`)
 LIST_OPTIONS = ("--face-sizes", "--lod-biases", "--exponents", "--f0s", "--envs", "--lod-mappings", "--axis",
                 "--set", "--min-psnr", "--min-ssim", "--max-flip", "--tolerance-db", "--tolerance-ssim",
-                "--tolerance-flip", "--max-time-ratio")
+                "--tolerance-flip", "--max-time-ratio", "--exposure")
 
 
 def join_negative_values(argv: list[str]) -> list[str]:

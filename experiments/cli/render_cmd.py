@@ -17,6 +17,7 @@ import numpy as np
 
 import groundtruth
 import realtime
+from engines import command as engine_command
 from experiments.cli.inputs import UsageError, load_scene
 from experiments.measure import metrics
 from experiments.publish import images, outputs
@@ -27,8 +28,8 @@ from scenes.storage import imageio
 
 
 def render_with(renderer: str, scene) -> Render:
-    if renderer == "realtime":
-        return realtime.render(scene)
+    if renderer == "realtime":  # iblcheck's OpenGL renderer, or the scene's external engine (realtime.renderer)
+        return engine_command.render(scene) if scene.realtime.renderer == "command" else realtime.render(scene)
     if renderer == "reference":
         return groundtruth.render(scene)
     if renderer == "quadrature":

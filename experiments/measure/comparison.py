@@ -23,6 +23,7 @@ import numpy as np
 
 import groundtruth
 import realtime
+from engines import command as engine_command
 from experiments.measure.pair import Measurement, measure_pair
 from groundtruth.pathtracer import reference as pathtracer
 from realtime.engine.technique import UnsimulatedEffectWarning
@@ -33,9 +34,12 @@ AT_FLOOR_DB = 1.0
 
 
 def render_realtime(scene) -> Render:
-    """realtime.render(scene) for a comparison: its own warning ("the scene calls for X, which the chosen
-    real-time techniques do not simulate") is held back, because measure_pair says what the two
+    """The image under test: realtime.render(scene), or the external engine's (engines.command.render) when
+    `realtime.renderer = "command"`. The real-time renderer's own warning ("the scene calls for X, which the
+    chosen real-time techniques do not simulate") is held back, because measure_pair says what the two
     compared images miss (pair.effects_compared), which depends on the reference too."""
+    if scene.realtime.renderer == "command":
+        return engine_command.render(scene)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnsimulatedEffectWarning)
         return realtime.render(scene)

@@ -60,7 +60,7 @@ import numpy as np
 
 import groundtruth
 import scenes
-from experiments.measure import comparison, fields, metrics
+from experiments.measure import comparison, engine_image, fields, metrics
 from experiments.measure.pair import measure_pair
 from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
@@ -211,6 +211,9 @@ class Planned:
     thresholds: dict
     sets: dict
     key: str
+    image: Any = None  # an engine image (experiments.measure.engine_image.EngineImage) gated instead of a render
+    label: str | None = None  # the image's manifest label (its baseline key is SCENE#LABEL)
+    scene_spec: str | None = None  # the image's scene as the manifest names it
 
     def __iter__(self):  # unpacks as (scene, thresholds), as load() returned before baselines
         return iter((self.scene, self.thresholds))
@@ -277,6 +280,27 @@ def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True
     return Measured(result, extra, dict(test.meta), dict(reference.meta), digests, time.perf_counter() - t0)
 
 
+def measure_image(scene, image, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
+    """`measure` of an engine's image (experiments/measure/engine_image.py) instead of the real-time render."""
+    step = step or (lambda text: None)
+    t0 = time.perf_counter()
+    name = one_line(scene.name, 60)
+    step(f"{name}: reference")
+    reference = groundtruth.render(scene)
+    step(f"{name}: reference, second seed")
+    reference2 = comparison.second_reference(reference, scene)
+    step(f"{name}: image {one_line(image.path.name, 60)}")
+    c = engine_image.compare_image(image, scene, reference, reference2)
+    step(f"{name}: metrics")
+    m = c.measured
+    extra = {}
+    if noise and reference2 is not None:
+        extra = metric_noise(m.test, m.reference, m.reference2, m.noise_mask, ssim_map=m.ssim_map, flip_map=m.flip_map)
+    digests = {"image_sha256": hashlib.sha256(image.path.read_bytes()).hexdigest()[:32],
+               "reference_sha256": _digest(reference.rgb, reference.mask)}
+    return Measured(c.metrics, extra, dict(c.test.meta), dict(reference.meta), digests, time.perf_counter() - t0)
+
+
 def _digest(rgb: np.ndarray, mask: np.ndarray) -> str:
     h = hashlib.sha256(np.ascontiguousarray(rgb, np.float32).tobytes())
     h.update(np.ascontiguousarray(mask, bool).tobytes())
@@ -294,6 +318,8 @@ def make_record(planned: Planned, m: Measured) -> dict:
     """What --write-baseline stores for a scene (module docstring)."""
     ref = m.reference_meta
     record = {
+        **({"key": planned.key, "image": engine_image.image_fields(planned.image), "label": planned.label,
+            "scene_spec": planned.scene_spec} if planned.image is not None else {}),
         "name": planned.scene.name,
         "spec": planned.spec,
         "sets": {k: str(v) for k, v in planned.sets.items()},
@@ -340,10 +366,13 @@ def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | N
     results = []
     for p in loaded:
         p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
-        m = measure(p.scene, step, noise=noise or baseline is not None)
+        wants_noise = noise or baseline is not None
+        m = (measure(p.scene, step, wants_noise) if p.image is None
+             else measure_image(p.scene, p.image, step, wants_noise))
         record = make_record(p, m)
         allow_empty = p.scene.gate.allow_empty
-        r = GateResult(p.scene.name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds, allow_empty),
+        name = p.scene.name if p.image is None else f"{p.scene.name} [{p.label}]"
+        r = GateResult(name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds, allow_empty),
                        m.seconds, record)
         if allow_empty and m.metrics.get("no_signal"):
             r.warnings.append(f"empty comparison ({m.metrics['no_signal']}) passes: the scene's [gate] says "
@@ -459,10 +488,15 @@ def write_baseline(path: Path, results: list[GateResult]) -> None:
     scenes_out = {}
     for r in results:
         if r.record is not None:
-            scenes_out[scene_key(r.record["spec"])] = r.record
+            scenes_out[record_key(r.record)] = r.record
     data = {"format": FORMAT, "version": VERSION, "iblcheck": iblcheck_version(),
             "created": time.strftime("%Y-%m-%dT%H:%M:%S%z"), "scenes": scenes_out}
     write_text(path, json.dumps(data, indent=1, sort_keys=True, allow_nan=False) + "\n")
+
+
+def record_key(record: dict) -> str:
+    """A record's key in the baseline file: the scene as named, or SCENE#LABEL for an engine image."""
+    return record.get("key") or scene_key(record["spec"])
 
 
 def _reject_constant(name: str):
@@ -514,7 +548,8 @@ def _check_entry(path: Path, key: str, entry: Any) -> None:
         raise BaselineError(f"{where}.metrics.noise_floor_psnr: null beside a PSNR (the rule needs both)")
     timings = entry.get("timings")
     rt = timings.get("realtime_ms") if isinstance(timings, dict) else None
-    if not isinstance(rt, dict) or rt.get("total") is None:
+    # an engine image's record has a frame time only when its engine wrote a timings file
+    if not isinstance(rt, dict) or (rt.get("total") is None and not entry.get("image")):
         raise BaselineError(f"{where}.timings.realtime_ms.total: missing; a finite time >= 0 is required")
     fields.check_timings(rt, f"{where}.timings.realtime_ms", BaselineError)
     for k in ("identity", "settings"):
@@ -559,7 +594,7 @@ def warning_lines(results: list[GateResult], baseline: dict | None) -> list[str]
     """The `warning:`/`note:` lines of a baseline comparison (identity differences, unused records)."""
     out = [f"warning: {one_line(r.scene, 60)}: {one_line(w)}" for r in results for w in r.warnings]
     if baseline is not None:
-        used = {scene_key(r.record["spec"]) for r in results if r.record}
+        used = {record_key(r.record) for r in results if r.record}
         unused = [k for k in baseline["scenes"] if k not in used]
         if unused:
             out.append(one_line(f"note: {len(unused)} scene(s) of the baseline {baseline['path']} were not gated: "

@@ -98,6 +98,14 @@ def content_id(scene, reference_only: bool = False) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
+def image_row_id(scene, image: Path, encoding: str, tonemap: str, exposure: float, label: str) -> str:
+    """The id of an engine image's row (experiments/runs/image_manifest.py): the scene's content id, the
+    image file's SHA-256, how it is read and its label."""
+    content = {"scene": content_id(scene), "image_sha256": file_digest(str(image)), "encoding": encoding,
+               "tonemap": tonemap, "exposure": exposure, "label": label}
+    return hashlib.sha256(json.dumps(content, sort_keys=True).encode()).hexdigest()[:16]
+
+
 def row_id(scene_spec: str, overrides: dict) -> str:
     """The content id of the row (scene_spec, overrides)."""
     scene = scenes.load(scene_spec)
@@ -129,18 +137,25 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
     pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, c.measured, test)
     m = c.metrics
+    external = test.meta.get("renderer") == "command"  # an engine run as a command (engines/command.py)
+    if external:
+        techniques = {"renderer": "command", "engine": test.meta.get("engine"),
+                      "engine_version": test.meta.get("engine_version")}
+    else:
+        techniques = test.meta.get("techniques") or technique.describe(scene)  # what ran, not_run included
     row = ResultRow(
-        id=rid, spec=spec, overrides=overrides, scene=scene.name,
-        techniques=test.meta.get("techniques") or technique.describe(scene),  # what ran, not_run included
+        id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=techniques,
         materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
         unsimulated_effects=m["unsimulated_effects"], width=scene.camera.width, height=scene.camera.height,
-        face_size=test.meta["face_size"], psnr=m["psnr"], ssim=m["ssim"], flip=m["flip"], rel_mse=m["rel_mse"],
+        face_size=test.meta.get("face_size", 0), psnr=m["psnr"], ssim=m["ssim"], flip=m["flip"], rel_mse=m["rel_mse"],
         noise_floor_psnr=m["noise_floor_psnr"], at_noise_floor=m["at_noise_floor"], pixels=m["pixels"],
         realtime_ms=m["realtime_ms"], reference_s=m["reference_s"], reference_spp=m["reference_spp"],
         reference_id=ref_id, reference_cache=m["reference_cache"], psnr_unbiased=m["psnr_unbiased"],
         psnr_unbiased_clamped=m["psnr_unbiased_clamped"],
         realtime_p90_ms={k: test.timings.get(f"{k}_p90") for k in m["realtime_ms"] if k != "precompute"},
-        experiment=experiment, host=socket.gethostname(), gl_renderer=renderer_name(), images=pics, extra=extra or {})
+        experiment=experiment, host=socket.gethostname(),
+        gl_renderer=(f"{techniques['engine']} {techniques['engine_version'] or ''}".strip() if external
+                     else renderer_name()), images=pics, extra=extra or {})
     return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
 
 

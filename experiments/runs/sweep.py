@@ -260,6 +260,8 @@ def stale(rows: list[ResultRow]) -> list[ResultRow]:
     or the spec cannot be loaded any more)."""
     out = []
     for r in rows:
+        if r.extra.get("image"):  # an engine image's row: its id holds the image's digest (rows.image_row_id)
+            continue
         try:
             now = row_id(r.spec, r.overrides)
         except InputError:

@@ -26,6 +26,7 @@ from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import SceneDrawer
 from realtime.engine.technique import UnsimulatedEffectWarning  # noqa: F401 (where warnings are filtered)
 from realtime.engine.timing import summarize, timed
+from scenes import InputError
 from scenes.model.render import Render
 
 
@@ -62,6 +63,10 @@ def warn_not_run(scene, idle: dict[str, str]) -> None:
 def render(scene) -> Render:
     """Render a scene in real time with its techniques; see the module docstring."""
     rt = scene.realtime
+    if rt.renderer != "opengl":
+        raise InputError(f"{scene.path or scene.name}: realtime.renderer = {rt.renderer!r}: this scene is rendered "
+                         "by an external engine ([realtime.command]), not by iblcheck's OpenGL renderer; "
+                         "`iblcheck render`, `compare`, `gate` and `sweep` run it")
     ctx = get_context()
     missing = warn_unsimulated(scene)
     distance = object_distance(scene)

@@ -142,6 +142,15 @@ class SphereMap:
 
 
 @dataclass(frozen=True)
+class EngineCommand:
+    """[realtime.command]: the external engine that renders the scene when `realtime.renderer = "command"`
+    (engines/command.py): a builtin bridge by name, or a command template of one's own."""
+    engine: str = ""  # "threejs" | "babylon" | "cycles" (engines/command.py BUILTIN_TEMPLATES), or "" with a template
+    template: str = ""  # a command line with {placeholders} for the exported files and the output image
+    timeout_s: float = 600.0
+
+
+@dataclass(frozen=True)
 class Realtime:
     """[realtime]: the engine's own keys as fields, the techniques' keys in `settings`.
 
@@ -167,6 +176,9 @@ class Realtime:
     parameterization: str = "cube"
     reflection: str = "per_pixel"  # or "per_vertex": the mirror direction interpolated from the vertices
     sphere_map: SphereMap = field(default_factory=SphereMap)
+    #: "opengl" (iblcheck's own renderer and its techniques) or "command": an external engine, [realtime.command]
+    renderer: str = "opengl"
+    command: EngineCommand = field(default_factory=EngineCommand)
     #: (key, value) of the techniques' keys: flat values and table dataclasses, in registry order
     settings: tuple[tuple[str, Any], ...] = ()
 
@@ -178,10 +190,13 @@ class Realtime:
 
     def to_dict(self) -> dict:
         """The engine's keys, then the techniques' keys (tables as dicts)."""
-        out = {f.name: getattr(self, f.name) for f in fields(self) if f.name not in ("sphere_map", "settings")}
+        out = {f.name: getattr(self, f.name) for f in fields(self)
+               if f.name not in ("sphere_map", "settings", "renderer", "command")}
         for key, value in self.settings:
             out[key] = asdict(value) if is_dataclass(value) else value
         out["sphere_map"] = asdict(self.sphere_map)
+        out["renderer"] = self.renderer
+        out["command"] = asdict(self.command)
         return out
 
 
@@ -268,10 +283,11 @@ class Scene:
             for key in ADDED_KEYS["material"]:
                 if key not in used:
                     od["material"].pop(key, None)
-        users = technique_registry.table_users(self.realtime)
-        for table in ADDED_KEYS["realtime"]:
-            if users.get(table) is None:
-                d["realtime"].pop(table, None)
+        users = table_users(self.realtime)
+        for key in ADDED_KEYS["realtime"]:  # a table where nothing reads it; the renderer where it is the default
+            used = self.realtime.renderer != "opengl" if key == "renderer" else users.get(key) is not None
+            if not used:
+                d["realtime"].pop(key, None)
         return d
 
 
@@ -376,9 +392,15 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
         "warmup_frames": _num(0, 10000, integer=True),
         "parameterization": _enum("cube", "dual_paraboloid", "sphere_map"),
         "reflection": _enum("per_pixel", "per_vertex"),
+        "renderer": _enum("opengl", "command"),
     },
     "realtime.sphere_map": {
         "capture": _view_direction(),
+    },
+    "realtime.command": {
+        "engine": _enum("threejs", "babylon", "cycles"),
+        "template": _string(),
+        "timeout_s": _num(1, 86400),
     },
     "reference": {
         "spp": _num(1, 1 << 24, integer=True),
@@ -402,7 +424,7 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
 #: table its chosen technique reads). A key added to the format later is listed here too.
 ADDED_KEYS = {
     "material": ("base_color", "metallic", "roughness"),
-    "realtime": ("split_sum",),
+    "realtime": ("split_sum", "renderer", "command"),
 }
 
 
@@ -658,7 +680,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
 # --------------------------------------------------------------------------- techniques
 
 #: the [realtime] tables of the engine itself (the techniques' tables are declared by the techniques)
-ENGINE_TABLES = {"sphere_map": SphereMap}
+ENGINE_TABLES = {"sphere_map": SphereMap, "command": EngineCommand}
 #: technique choices that realtime/ does not have yet: refused at load ("not implemented yet"), never
 #: ignored (tests/realtime/test_techniques.py checks that every other choice has a module).
 NOT_IMPLEMENTED: frozenset[tuple[str, str]] = frozenset()
@@ -668,10 +690,13 @@ def table_users(rt: Realtime) -> dict[str, str | None]:
     """For each [realtime] table, the `realtime.KEY = "VALUE"` choice that uses it (None: unused)."""
     users = technique_registry.table_users(rt)
     users["sphere_map"] = 'realtime.parameterization = "sphere_map"' if rt.parameterization == "sphere_map" else None
+    users["command"] = 'realtime.renderer = "command"' if rt.renderer == "command" else None
     return users
 
 
 def _table_hint(name: str) -> str:
+    if name == "command":
+        return 'realtime.renderer = "command"'
     if name in ENGINE_TABLES:
         return 'realtime.parameterization = "sphere_map"'
     return technique_registry.table_hint(name)
@@ -692,6 +717,12 @@ def _realtime(raw: Any, where: str, section) -> Realtime:
     engine = {k: v for k, v in values.items() if k in engine_keys}
     if "sphere_map" in raw:
         engine["sphere_map"] = SphereMap(**section("realtime.sphere_map", raw["sphere_map"]))
+    if "command" in raw:
+        engine["command"] = EngineCommand(**section("realtime.command", raw["command"]))
+        _check_command(engine["command"], where)
+    elif engine.get("renderer") == "command":
+        raise SceneError(f"{where}: realtime.renderer = 'command': add a [realtime.command] table naming the engine "
+                         "(engine = \"threejs\", \"babylon\" or \"cycles\") or a command (template = \"...\")")
     choice = Realtime(**engine)
     picked = {(e, getattr(choice, e)) for e in technique_registry.EFFECT_KEYS}
     settings: dict[str, Any] = {}
@@ -722,6 +753,15 @@ def _realtime(raw: Any, where: str, section) -> Realtime:
         if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
             raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
     return rt
+
+
+def _check_command(command: EngineCommand, where: str) -> None:
+    """[realtime.command] names exactly one engine: a builtin bridge or a template of one's own."""
+    if bool(command.engine) == bool(command.template.strip()):
+        given = "both" if command.engine else "neither"
+        raise SceneError(f"{where}: realtime.command: {given} of engine and template given; name a builtin engine "
+                         "(engine = \"threejs\", \"babylon\" or \"cycles\") or a command (template = \"...\"), one "
+                         "of the two")
 
 
 # --------------------------------------------------------------------------- overrides

@@ -50,6 +50,16 @@ def srgb_encode(x: np.ndarray) -> np.ndarray:
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 
 
+def srgb_decode(v: np.ndarray) -> np.ndarray:
+    """Inverse of `srgb_encode` (IEC 61966-2-1): sRGB-encoded values in [0, 1] -> display-linear.
+
+    The break point 0.04045 = 12.92 * 0.0031308 (to the standard's rounding) splits the linear toe
+    from the power segment, ((v + 0.055) / 1.055)^2.4 above it.
+    """
+    v = np.clip(np.asarray(v, dtype=np.float64), 0.0, 1.0)
+    return np.where(v <= 0.04045, v / 12.92, np.power((v + 0.055) / 1.055, 2.4))
+
+
 def tonemap(rgb: np.ndarray, key: float, white: float, exposure: float, adapt_lum: float) -> np.ndarray:
     """Linear radiance -> sRGB-encoded float32 in [0, 1] (Reinhard, then sRGB)."""
     return srgb_encode(reinhard(rgb, key, white, exposure, adapt_lum)).astype(np.float32)

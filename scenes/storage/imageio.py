@@ -104,6 +104,18 @@ def _exr_colour_planes(path: Path, channels: dict[str, np.ndarray]) -> list[np.n
                       "R, G and B channels (or one luminance channel Y)")
 
 
+def read_exr_alpha(path: Path) -> np.ndarray | None:
+    """The A channel of an OpenEXR file that `read_exr` reads (float32 (H, W)), or None when it has none.
+    An engine's alpha is its coverage: iblcheck's own renders write it that way (`write_exr(..., alpha)`)."""
+    try:
+        with OpenEXR.File(str(path), separate_channels=True) as f:
+            channels = {name: np.array(ch.pixels) for name, ch in f.channels().items()}
+    except Exception:
+        raise EnvMapError(f"{path}: corrupt or truncated OpenEXR pixel data") from None
+    alpha = channels.get("A")
+    return None if alpha is None else np.asarray(alpha, dtype=np.float32)
+
+
 def write_exr(path: Path, rgb: np.ndarray, alpha: np.ndarray | None = None, half: bool = False) -> None:
     """Write float32 (or half) R, G, B[, A] channels, ZIP-compressed, scanline order top first."""
     rgb = np.asarray(rgb)

@@ -1,0 +1,75 @@
+"""The frame timings an external engine may write beside its image, and how iblcheck reports them.
+
+The JSON file (every key optional):
+
+    {"engine": "three.js", "version": "0.181.0",
+     "frame_ms": [1.9, 2.1, ...],     one entry per timed frame, after the engine's own warm-up
+     "precompute_ms": 41.0,           once per scene: prefiltering, table builds (three.js' PMREM, say)
+     "notes": "SwiftShader (CPU)"}    what the milliseconds are, in the engine's words
+
+They become a Render's timings like iblcheck's own: `draw` and `total` the median frame time, `draw_p90` its
+90th percentile, `precompute`. A number that is not finite and >= 0, or a key of the wrong kind, is refused
+naming the file and key: a frame time is a claim the reports print.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from scenes import InputError
+
+
+@dataclass(frozen=True)
+class EngineTimings:
+    engine: str = ""
+    version: str = ""
+    frame_ms: tuple[float, ...] = ()
+    precompute_ms: float | None = None
+    notes: str = ""
+
+    def as_render_timings(self) -> dict[str, float]:
+        """Render.timings: `draw` = `total` = the median frame, `draw_p90`, `precompute` (those given)."""
+        out: dict[str, float] = {}
+        if self.frame_ms:
+            median = float(np.median(self.frame_ms))
+            out.update(draw=median, total=median, draw_p90=float(np.percentile(self.frame_ms, 90)))
+        if self.precompute_ms is not None:
+            out["precompute"] = float(self.precompute_ms)
+        return out
+
+
+def _ms(value, where: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value < 0:
+        raise InputError(f"{where} = {value!r}: must be a finite number of milliseconds >= 0")
+    return float(value)
+
+
+def _text(tree: dict, key: str, path: Path) -> str:
+    value = tree.get(key, "")
+    if not isinstance(value, str):
+        raise InputError(f"{path}: {key} = {value!r}: must be a string")
+    return value[:200]
+
+
+def read(path: Path, origin: str = "") -> EngineTimings:
+    """Parse an engine's timings file (module docstring); InputError naming the file and key."""
+    where = f"{origin}: {path}" if origin else str(path)
+    try:
+        tree = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        raise InputError(f"{where}: not a readable JSON file of frame timings ({exc})") from None
+    if not isinstance(tree, dict):
+        raise InputError(f"{where}: must be a JSON object, got {type(tree).__name__}")
+    frames = tree.get("frame_ms", [])
+    if not isinstance(frames, list):
+        raise InputError(f"{where}: frame_ms = {frames!r}: must be a list of milliseconds")
+    frame_ms = tuple(_ms(v, f"{where}: frame_ms[{i}]") for i, v in enumerate(frames))
+    pre = tree.get("precompute_ms")
+    return EngineTimings(engine=_text(tree, "engine", path), version=_text(tree, "version", path), frame_ms=frame_ms,
+                         precompute_ms=None if pre is None else _ms(pre, f"{where}: precompute_ms"),
+                         notes=_text(tree, "notes", path))

@@ -1,0 +1,269 @@
+"""Any engine's image, read from its file and scored against the scene's reference.
+
+    read_engine_image(path, scene, encoding="linear"|"srgb", tonemap="none", exposure=1.0) -> EngineImage
+    measure_display_pair(image, reference, scene, second_reference=None) -> Measurement
+    compare_image(image, scene, reference=None, reference2=None) -> Comparison
+
+Two kinds of image (docs/contract.md, the display-space rule):
+
+- **linear** (OpenEXR, PFM, Radiance .hdr): the engine's radiance, no tone mapping. It becomes a `Render`
+  (rgb, mask all True: the coverage is the reference's; timings from the timings JSON beside it) and is
+  measured by `measure_pair` exactly as iblcheck's own real-time image: the scene's display transform
+  on both sides, every metric.
+- **srgb** (PNG 8 or 16 bit, JPEG): a tone-mapped, sRGB-encoded image. The reference is put through the
+  same named operator and exposure (scenes/model/tone_operators.py), sRGB-encoded and quantised to the
+  image's bit depth; the image's code values become [0, 1]; PSNR, SSIM and FLIP are computed on the
+  common mask of those display values. The linear metrics (rel_mse, psnr_unbiased) are None:
+  "display-space metrics only (the image is tone-mapped sRGB)".
+
+An alpha channel is ignored (an engine writes alpha = 1 over the environment background; the reference's
+coverage decides which pixels count). Every problem with the file is a `scenes.InputError` naming it.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import statistics
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import imageio.v3 as iio
+import numpy as np
+
+import groundtruth
+from experiments.measure import comparison, metrics
+from experiments.measure.pair import Measurement, measure_pair
+from scenes import InputError
+from scenes.model import tone_operators
+from scenes.model.render import Render
+from scenes.model.tonemap import srgb_decode, srgb_encode
+from scenes.storage import imageio as hdr_io
+from scenes.storage.files import read_input
+
+ENCODINGS = ("linear", "srgb")
+#: file suffixes per encoding
+LINEAR_SUFFIXES = {".exr": hdr_io.read_exr, ".pfm": hdr_io.read_pfm, ".hdr": hdr_io.read_hdr}
+DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
+#: what the row, the table and the JSON say about a display-space comparison
+DISPLAY_ONLY = "display-space metrics only (the image is tone-mapped sRGB)"
+#: the timings JSON an engine may write beside its image: FRAME.exr -> FRAME.timings.json
+TIMINGS_SUFFIX = ".timings.json"
+MAX_TIMINGS_BYTES = 1 << 20
+
+
+@dataclass(frozen=True)
+class EngineImage:
+    """An engine's image as read: `values` are linear radiance (encoding "linear", float32) or the file's
+    code values scaled to [0, 1] (encoding "srgb", float64, still sRGB-encoded); `bits` the sRGB file's
+    bit depth (8 or 16), None for linear. `timings`: the Render timings from the timings JSON (ms)."""
+
+    path: Path
+    encoding: str
+    tonemap: str
+    exposure: float
+    values: np.ndarray
+    bits: int | None = None
+    timings: dict = field(default_factory=dict)
+    engine: str | None = None
+    engine_version: str | None = None
+    alpha_ignored: bool = False
+
+    @property
+    def display_space(self) -> bool:
+        return self.encoding == "srgb"
+
+    def render(self) -> Render:
+        """The image as a `Render`: the radiance (linear) or the display-linear values (srgb, for the
+        timings and meta only: a display-space image is measured by `measure_display_pair`)."""
+        rgb = self.values if not self.display_space else srgb_decode(self.values)
+        h, w = rgb.shape[:2]
+        meta = {"renderer": "image", "path": str(self.path), "encoding": self.encoding, "tonemap": self.tonemap,
+                "exposure": self.exposure, "engine": self.engine, "engine_version": self.engine_version}
+        return Render(rgb=np.asarray(rgb, np.float32), mask=np.ones((h, w), bool), timings=dict(self.timings),
+                      meta=meta)
+
+
+def default_encoding(path: Path) -> str | None:
+    """The encoding a file's suffix implies: "linear" for EXR/PFM/HDR, None for PNG/JPEG (must be named)."""
+    return "linear" if Path(path).suffix.lower() in LINEAR_SUFFIXES else None
+
+
+def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap: str = "none",
+                      exposure: float = 1.0, timings: str | Path | None = None) -> EngineImage:
+    """Read and check an engine's image of `scene` (module docstring). `timings`: the engine's timings
+    JSON; by default FRAME.timings.json beside the image when it exists."""
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if encoding not in ENCODINGS:
+        raise InputError(f"{path}: image encoding {encoding!r} is unknown; choose linear or srgb")
+    if tonemap not in tone_operators.NAMES:
+        raise InputError(f"{path}: tone mapping {tonemap!r} is unknown; choose one of "
+                         f"{', '.join(tone_operators.NAMES)}")
+    if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
+        raise InputError(f"{path}: exposure {exposure!r} must be a finite number > 0")
+    if not path.is_file():
+        raise InputError(f"{path}: image file not found" if not path.exists() else f"{path}: not a regular file")
+    if suffix not in LINEAR_SUFFIXES and suffix not in DISPLAY_SUFFIXES:
+        raise InputError(f"{path}: image suffix {suffix or '(none)'!r} is not read: linear radiance as .exr, .pfm "
+                         "or .hdr; a tone-mapped sRGB image as .png, .jpg or .jpeg")
+    if encoding == "linear":
+        if suffix in DISPLAY_SUFFIXES:
+            raise InputError(f"{path}: a {suffix} image holds 8- or 16-bit display code values, not linear radiance; "
+                             "name its tone mapping with encoding srgb (--image-encoding srgb --tonemap NAME), or "
+                             "write the engine's linear radiance as OpenEXR")
+        if tonemap != "none" or exposure != 1.0:
+            raise InputError(f"{path}: a linear image is radiance, measured with the scene's own display transform; "
+                             f"tone mapping {tonemap!r} and exposure {exposure:g} apply to an srgb image only")
+        values, bits, alpha = _read_linear(path, suffix), None, False
+    else:
+        if suffix in LINEAR_SUFFIXES:
+            raise InputError(f"{path}: a {suffix} file holds linear radiance, not sRGB code values; read it as "
+                             "encoding linear")
+        values, bits, alpha = _read_display(path)
+    h, w = values.shape[:2]
+    if (w, h) != (scene.camera.width, scene.camera.height):
+        raise InputError(f"{path}: image of {w} x {h} pixels; the scene {scene.name!r} renders "
+                         f"{scene.camera.width} x {scene.camera.height} (camera.width x camera.height)")
+    tpath = Path(timings) if timings is not None else path.with_name(path.name[: -len(path.suffix)] + TIMINGS_SUFFIX)
+    engine, version, tms = (None, None, {}) if timings is None and not tpath.is_file() else read_timings(tpath)
+    return EngineImage(path, encoding, tonemap, float(exposure), values, bits, tms, engine, version, alpha)
+
+
+def _read_linear(path: Path, suffix: str) -> np.ndarray:
+    rgb = LINEAR_SUFFIXES[suffix](path)  # EnvMapError (an InputError) naming the file; alpha ignored
+    bad = ~np.isfinite(rgb)
+    if bad.any():
+        y, x = np.argwhere(bad.any(axis=-1))[0]
+        raise InputError(f"{path}: {int(bad.any(axis=-1).sum())} pixel(s) hold NaN or Inf (first at row {y}, "
+                         f"column {x}); an engine's radiance must be finite")
+    neg = rgb < 0
+    if neg.any():
+        y, x = np.argwhere(neg.any(axis=-1))[0]
+        raise InputError(f"{path}: {int(neg.any(axis=-1).sum())} pixel(s) hold negative radiance (first at row "
+                         f"{y}, column {x}: {rgb[y, x].tolist()}); radiance is >= 0")
+    return rgb.astype(np.float32)
+
+
+def _read_display(path: Path) -> tuple[np.ndarray, int, bool]:
+    """Code values in [0, 1], the bit depth, and whether an alpha channel was dropped."""
+    try:
+        raw = iio.imread(path)
+    except Exception as exc:  # imageio/Pillow raise OSError, ValueError, SyntaxError for corrupt files
+        raise InputError(f"{path}: not a readable PNG or JPEG image ({type(exc).__name__})") from None
+    if raw.dtype == np.uint8:
+        bits, top = 8, 255.0
+    elif raw.dtype == np.uint16:
+        bits, top = 16, 65535.0
+    else:
+        raise InputError(f"{path}: {raw.dtype} pixels; an sRGB image holds 8- or 16-bit integers")
+    alpha = False
+    if raw.ndim == 2:  # grey: R = G = B
+        raw = np.repeat(raw[..., None], 3, axis=-1)
+    elif raw.ndim == 3 and raw.shape[2] in (2, 4):  # grey + alpha, RGBA: the alpha is ignored
+        alpha = True
+        raw = np.repeat(raw[..., :1], 3, axis=-1) if raw.shape[2] == 2 else raw[..., :3]
+    elif not (raw.ndim == 3 and raw.shape[2] == 3):
+        raise InputError(f"{path}: image of shape {raw.shape}; expected grey, RGB or RGBA")
+    return raw.astype(np.float64) / top, bits, alpha
+
+
+def read_timings(path: Path) -> tuple[str | None, str | None, dict]:
+    """(engine, version, Render timings) of an engine's timings JSON: {"engine", "version", "frame_ms": [...],
+    "precompute_ms"}; draw and total are the median frame time."""
+    data = read_input(path, "timings file", MAX_TIMINGS_BYTES, InputError)
+    try:
+        tree = json.loads(data.decode("utf-8"), parse_constant=_reject)
+    except (UnicodeDecodeError, ValueError) as exc:
+        raise InputError(f"{path}: timings file is not JSON ({exc})") from None
+    if not isinstance(tree, dict):
+        raise InputError(f"{path}: timings file must hold a JSON object")
+    out: dict[str, float] = {}
+    frames = tree.get("frame_ms")
+    if frames is not None:
+        if not (isinstance(frames, list) and frames and all(_time(v) for v in frames)):
+            raise InputError(f"{path}: frame_ms must be a non-empty list of finite times >= 0 (ms)")
+        out["draw"] = out["total"] = float(statistics.median(frames))
+    pre = tree.get("precompute_ms")
+    if pre is not None:
+        if not _time(pre):
+            raise InputError(f"{path}: precompute_ms {pre!r} must be a finite time >= 0 (ms)")
+        out["precompute"] = float(pre)
+    engine, version = tree.get("engine"), tree.get("version")
+    for key, value in (("engine", engine), ("version", version)):
+        if value is not None and not isinstance(value, str):
+            raise InputError(f"{path}: {key} must be a string")
+    return engine, version, out
+
+
+def _reject(name: str):
+    raise ValueError(f"holds {name}")
+
+
+def _time(v) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
+
+
+# --------------------------------------------------------------------------- display-space measurement
+
+
+def display_reference(rgb: np.ndarray, image: EngineImage) -> np.ndarray:
+    """The reference's radiance as the engine's file would hold it: the named operator and exposure, the
+    sRGB encoding, rounded to the image's bit depth, in [0, 1]."""
+    encoded = srgb_encode(tone_operators.apply(image.tonemap, rgb, image.exposure))
+    top = float((1 << image.bits) - 1) if image.bits else None
+    return encoded if top is None else np.round(encoded * top) / top
+
+
+def measure_display_pair(image: EngineImage, reference: Render, scene, *,
+                         second_reference: Render | None = None) -> Measurement:
+    """`measure_pair`'s Measurement for a tone-mapped sRGB image: both sides in the engine's display space
+    (module docstring). `rel_mse` and `psnr_unbiased` are None; the noise floor is that of the two
+    references in the same display space."""
+    a = np.asarray(image.values, np.float64)
+    b = display_reference(reference.rgb, image)
+    covered = metrics.common_mask(np.ones(a.shape[:2], bool), reference.mask)
+    empty = metrics.no_signal(b, covered)
+    mask = np.zeros_like(covered) if empty else covered
+    if second_reference is None:
+        b2, noise_mask = None, mask
+        floor = metrics.PSNR_CAP if mask.any() else None
+    else:
+        b2, noise_mask = display_reference(second_reference.rgb, image), mask & second_reference.mask
+        floor = metrics.noise_floor_psnr(b, b2, noise_mask)
+    ssim = metrics.ssim(a, b, mask, full=True)
+    flip_map = metrics.flip_map(a.astype(np.float32), b.astype(np.float32))
+    return Measurement(
+        test=a.astype(np.float32), reference=b.astype(np.float32),
+        reference2=None if b2 is None else b2.astype(np.float32), mask=covered, noise_mask=noise_mask,
+        empty=empty, psnr=metrics.psnr(a, b, mask), psnr_unbiased=metrics.UnbiasedPSNR(None, False),
+        noise_floor_psnr=floor, ssim=ssim.value, ssim_map=ssim.map, ssim_selection=ssim.selection,
+        flip=float(flip_map[mask].mean()) if mask.any() else None, flip_map=flip_map, rel_mse=None)
+
+
+def compare_image(image: EngineImage, scene, reference: Render | None = None,
+                  reference2: Render | None = None) -> comparison.Comparison:
+    """`comparison.compare_renders` of an engine's image against the scene's (cached) reference: the same
+    dict, plus `image`, `engine`, `encoding`, `tonemap` and, in display space, `note` (`DISPLAY_ONLY`)."""
+    if reference is None:
+        reference = groundtruth.render(scene)
+    if reference2 is None:
+        reference2 = comparison.second_reference(reference, scene)
+    test = image.render()
+    if image.display_space:
+        m = measure_display_pair(image, reference, scene, second_reference=reference2)
+    else:
+        m = measure_pair(test, reference, scene, second_reference=reference2)
+    result = comparison.compare(test, reference, scene, reference2, measured=m)
+    result.update(image_fields(image))
+    if image.display_space:
+        result.update(psnr_unbiased=None, psnr_unbiased_clamped=None, rel_mse=None)
+    return comparison.Comparison(result, test, reference, m)
+
+
+def image_fields(image: EngineImage) -> dict:
+    """What a comparison's dict says about the image: its file, engine, encoding, operator, note."""
+    return {"image": str(image.path), "engine": image.engine, "engine_version": image.engine_version,
+            "encoding": image.encoding, "tonemap": image.tonemap, "exposure": image.exposure,
+            **({"note": DISPLAY_ONLY} if image.display_space else {}),
+            **({"alpha": "ignored"} if image.alpha_ignored else {})}
