@@ -13,16 +13,24 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass
+from pathlib import Path
 
 import numpy as np
 
 from experiments.measure import metrics
 from experiments.measure.diagnosis import fitting, hypotheses
-from experiments.measure.diagnosis.renders import Renders, read_image
+from experiments.measure.diagnosis.renders import Renders
 from experiments.measure.diagnosis.scoring import MIN_GAIN_DB, Scorer, Z
 from experiments.measure.diagnosis.selection import Step, select, testable
+from experiments.measure.engine_image import read_engine_image
 
 __all__ = ["Diagnosis", "Step", "diagnose", "read_image"]
+
+
+def read_image(path: str | Path, scene) -> np.ndarray:
+    """An engine's linear image of `scene` (.exr, .pfm, .hdr), checked as `iblcheck compare --image` checks it
+    (experiments.measure.engine_image: the size, no NaN or Inf; InputError naming the file), float64."""
+    return np.asarray(read_engine_image(path, scene).values, np.float64)
 
 
 @dataclass(frozen=True)

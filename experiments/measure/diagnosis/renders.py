@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import hashlib
 import math
-from pathlib import Path
 
 import numpy as np
 
@@ -145,33 +144,3 @@ def _scene_key(mistakes: dict) -> tuple:
     return tuple(sorted((k, round(float(v), 6) if k == "env_rotation" else None)
                         for k, v in mistakes.items() if k in hypotheses.SCENE_LEVEL))
 
-
-def read_image(path: str | Path, scene) -> np.ndarray:
-    """An engine's image (.exr, .pfm, .hdr) as (H, W, 3) float64 linear radiance of the scene's size.
-
-    InputError (exit 2) naming the file for another format, a size other than the scene's camera, or a
-    NaN, Inf or negative value.
-    """
-    path = Path(path)
-    readers = {".exr": imageio.read_exr, ".pfm": imageio.read_pfm, ".hdr": imageio.read_hdr}
-    reader = readers.get(path.suffix.lower())
-    if reader is None:
-        raise InputError(f"--image {path}: unsupported format {path.suffix!r}; use .exr, .pfm or .hdr")
-    if not path.is_file():
-        raise InputError(f"--image {path}: no such file")
-    try:
-        rgb = np.asarray(reader(path), np.float64)
-    except InputError:
-        raise
-    except (OSError, ValueError) as exc:
-        raise InputError(f"--image {path}: unreadable: {exc}") from None
-    c = scene.camera
-    if rgb.shape != (c.height, c.width, 3):
-        raise InputError(f"--image {path}: {rgb.shape[1]} x {rgb.shape[0]} pixels; the scene's camera is "
-                         f"camera.width x camera.height = {c.width} x {c.height}")
-    bad = ~np.isfinite(rgb) | (rgb < 0)
-    if bad.any():
-        r, col, ch = (int(i) for i in np.argwhere(bad)[0])
-        raise InputError(f"--image {path}: {int(bad.sum())} NaN, Inf or negative values; first at row {r}, "
-                         f"column {col}, channel {'RGB'[ch]}")
-    return rgb
