@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 from types import ModuleType
 
-from experiments.cli import compare_image_cmd, export_cmd, image_manifest_cmd, render_cmd
+from experiments.cli import compare_image_cmd, diagnose_cmd, export_cmd, image_manifest_cmd, render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
 from experiments.measure.results import folder_lock
 from experiments.paper import registry
@@ -158,6 +158,9 @@ def build_parser() -> argparse.ArgumentParser:
     export_cmd.add_parser(sub)
     sub.choices["export"].set_defaults(func=_cmd_export)
 
+    diagnose_cmd.add_parser(sub)
+    sub.choices["diagnose"].set_defaults(func=_cmd_diagnose)
+
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
                         description="Run the paper's experiments E1 ... E10 in number order into OUT. Rows already "
                                     "in OUT/results.jsonl are reused, never computed again (an interrupted run "
@@ -213,6 +216,10 @@ def _cmd_render(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     return export_cmd.run(args)
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    return diagnose_cmd.run(args)
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:

@@ -1,4 +1,4 @@
-"""Builtin environments: four real light probes and four procedural maps.
+"""Builtin environments: four real light probes and five procedural maps.
 
 Probes (files in scenes/data/envs, credits in its README): uffizi, ennis, pisa, wells.
 
@@ -9,6 +9,8 @@ Procedural maps, generated deterministically (no randomness) in the equirect con
 - `sky`: a vertical gradient sky, a dim ground, and a sun disk whose radiance is `sun` times
   the zenith sky radiance (up to 1e6): the hard case for SH ringing and Monte Carlo noise.
 - `checker`: a high-frequency checkerboard (`cells` checks from pole to pole) for filtering tests.
+- `calibration`: a sky with five coloured discs and no symmetry, on which each convention mistake leaves
+  its own mark (scenes/environment/calibration.py; `iblcheck diagnose`).
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from importlib import resources
 import numpy as np
 
 from scenes.environment import envmap
+from scenes.environment.calibration import calibration_map
 from scenes.environment.directions import equirect_directions, uv_to_direction
 from scenes.storage.errors import SceneError
 
@@ -35,6 +38,7 @@ PARAMS: dict[str, dict[str, tuple[float, float, float]]] = {
         "sun_radius_deg": (2.0, 0.05, 45.0),
     },
     "checker": {"cells": (16.0, 1.0, 512.0), "low": (0.1, 0.0, 1e9), "high": (1.0, 0.0, 1e9)},
+    "calibration": {},
 }
 for _probe in PROBES:
     PARAMS[_probe] = {}
@@ -85,6 +89,8 @@ def _builtin_cached(name: str, params: tuple) -> np.ndarray:
         arr = _studio()
     elif name == "sky":
         arr = _sky(**p)
+    elif name == "calibration":
+        arr = calibration_map()
     else:
         arr = _checker(int(p["cells"]), p["low"], p["high"])
     arr = np.ascontiguousarray(arr, dtype=np.float32)

@@ -1,0 +1,131 @@
+"""The fitted parameters: the exposure factor, the tone operator and the environment's angle.
+
+    predict(renders, mistakes, image, mask) -> (prediction, mistakes with the exposure refitted)
+    candidate(name, renders, mistakes, scorer, image) -> the mistakes with `name` added, its parameter fitted
+
+- exposure: the factor of least squares in linear radiance over the mask (hypotheses.fit_exposure),
+  refitted whenever the other mistakes change, since it scales whatever they predict.
+- tonemap: each operator of scenes.model.tone_operators.NAMES except "none", the best-scoring one.
+- env_rotation: the angle in (-180, 180]. Ranked cheaply first: the proxy render (renders.Renders.proxy)
+  at every COARSE_STEP_DEG, then, around each of the TOP best coarse angles, a golden-section search on
+  the proxy to REFINE_TOL_DEG; each refined angle is then scored with the real reference, and around the
+  better one a parabola through the reference's MSE at +-FINAL_STEP_DEG gives the fit (rounded to 0.1
+  degree, so that the reference renders it needs are cached and reused).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from experiments.measure.diagnosis import hypotheses
+from experiments.measure.diagnosis.renders import Renders
+from experiments.measure.diagnosis.scoring import Scorer
+from scenes.model import tone_operators
+
+COARSE_STEP_DEG = 20.0
+TOP = 2
+REFINE_TOL_DEG = 0.5
+#: the half-width of the parabola fitted on the reference around the proxy's best angle
+FINAL_STEP_DEG = 1.0
+#: the golden ratio's conjugate, (sqrt 5 - 1) / 2: golden-section search keeps this fraction per step
+INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
+
+
+def operators() -> tuple[str, ...]:
+    """The tone operators a `tonemap` mistake may have applied."""
+    return tuple(n for n in tone_operators.NAMES if n != "none")
+
+
+def finish(rgb: np.ndarray, mistakes: dict, image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The radiance- and image-stage mistakes applied to a render (hypotheses' fixed order: tonemap, sRGB,
+    flips, exposure refitted last); returns the prediction and `mistakes` with its exposure factor."""
+    if "tonemap" in mistakes:
+        rgb = np.asarray(tone_operators.apply(mistakes["tonemap"], rgb), np.float64)
+    if "srgb_encoded" in mistakes:
+        rgb = hypotheses.srgb_oetf(rgb)
+    rgb = hypotheses.flip(rgb, mistakes)
+    if "exposure" in mistakes:
+        k = hypotheses.fit_exposure(rgb, image, mask)
+        rgb = rgb * k
+        mistakes = {**mistakes, "exposure": k}
+    return rgb, mistakes
+
+
+def predict(renders: Renders, mistakes: dict, image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, dict]:
+    """The reference as an engine making `mistakes` would have rendered it (see hypotheses)."""
+    return finish(renders.render(mistakes), mistakes, image, mask)
+
+
+def _wrap(angle: float) -> float:
+    """The angle in (-180, 180]."""
+    a = math.fmod(angle, 360.0)
+    a = a - 360.0 if a > 180.0 else a + 360.0 if a <= -180.0 else a
+    return 0.0 if a == -0.0 else a
+
+
+def fit_angle(renders: Renders, mistakes: dict, scorer: Scorer, image: np.ndarray) -> dict:
+    """`mistakes` with env_rotation at its best angle (see the module docstring)."""
+    base = {k: v for k, v in mistakes.items() if k != "env_rotation"}
+
+    def proxy_mse(angle: float) -> float:
+        rgb, _ = finish(renders.proxy(base, angle), base, image, scorer.mask)
+        return float(scorer.errors(rgb).mean())
+
+    coarse = np.arange(0.0, 360.0, COARSE_STEP_DEG)
+    values = np.array([proxy_mse(a) for a in coarse])
+    # the TOP local minima of the circular coarse curve, best first
+    n = len(coarse)
+    minima = [i for i in range(n) if values[i] <= values[(i - 1) % n] and values[i] <= values[(i + 1) % n]]
+    minima = sorted(minima, key=lambda i: values[i])[:TOP]
+    refined = [_golden(proxy_mse, coarse[i] - COARSE_STEP_DEG, coarse[i] + COARSE_STEP_DEG) for i in minima]
+
+    def mse(angle: float) -> float:
+        trial = {**base, "env_rotation": _wrap(round(angle, 1))}
+        return float(scorer.errors(predict(renders, trial, image, scorer.mask)[0]).mean())
+
+    scored = sorted((mse(a), a) for a in refined)
+    angle = _parabola_vertex(mse, scored[0][1], FINAL_STEP_DEG)
+    return {**base, "env_rotation": _wrap(round(angle, 1))}
+
+
+def _parabola_vertex(f, x: float, h: float) -> float:
+    """The vertex of the parabola through f at x - h, x, x + h, kept within [x - h, x + h] (x itself when
+    the three points are not convex): the last refinement, on the reference."""
+    f0, f1, f2 = f(x - h), f(x), f(x + h)
+    curvature = f0 - 2.0 * f1 + f2
+    if curvature <= 0:
+        return x if f1 <= min(f0, f2) else (x - h if f0 < f2 else x + h)
+    return x + float(np.clip(0.5 * h * (f0 - f2) / curvature, -h, h))
+
+
+def _golden(f, lo: float, hi: float) -> float:
+    """The minimum of a unimodal f on [lo, hi] to REFINE_TOL_DEG (golden-section search, Kiefer 1953)."""
+    a, b = lo, hi
+    c, d = b - INV_PHI * (b - a), a + INV_PHI * (b - a)
+    fc, fd = f(c), f(d)
+    while b - a > REFINE_TOL_DEG:
+        if fc <= fd:
+            b, d, fd = d, c, fc
+            c = b - INV_PHI * (b - a)
+            fc = f(c)
+        else:
+            a, c, fc = c, d, fd
+            d = a + INV_PHI * (b - a)
+            fd = f(d)
+    return 0.5 * (a + b)
+
+
+def candidate(name: str, renders: Renders, mistakes: dict, scorer: Scorer, image: np.ndarray) -> dict:
+    """`mistakes` with `name` added and its parameter fitted (the others' kept; exposure refitted)."""
+    if name == "env_rotation":
+        return fit_angle(renders, mistakes, scorer, image)
+    if name == "tonemap":
+        trials = [{**mistakes, "tonemap": op} for op in operators()]
+        scored = [(float(scorer.errors(predict(renders, t, image, scorer.mask)[0]).mean()), i)
+                  for i, t in enumerate(trials)]
+        return trials[min(scored)[1]]
+    if name == "exposure":
+        return {**mistakes, "exposure": 1.0}  # fitted in finish
+    return {**mistakes, name: None}

@@ -1,0 +1,128 @@
+"""The convention mistakes `iblcheck diagnose` tests, each with its forward model.
+
+A forward model says what an engine's image would be if the engine made the mistake: it is applied to
+the reference (never to the engine's image), so that a mistake explains the engine's image when the
+reference passed through its model matches that image better than the plain reference does.
+
+| name           | stage    | parameter      | forward model, applied to the reference                               |
+|----------------|----------|----------------|-----------------------------------------------------------------------|
+| env_rotation   | scene    | angle_deg      | re-rendered with environment.rotation_deg + angle (fitted)            |
+| env_u_mirror   | scene    |                | re-rendered with the map's columns reversed (u -> 1 - u)              |
+| fov_horizontal | scene    |                | re-rendered with the vertical fov 2 atan(tan(fov_deg / 2) H / W)      |
+| half_pixel     | render   |                | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2]   |
+| tonemap        | radiance | operator       | tone_operators.apply(operator, rgb) (display-linear, not encoded)     |
+| srgb_encoded   | radiance |                | the sRGB transfer function on every channel (not clamped above 1)     |
+| exposure       | radiance | factor         | rgb x factor (fitted by least squares in linear radiance)             |
+| mirror_x       | image    |                | columns reversed                                                      |
+| mirror_y       | image    |                | rows reversed                                                         |
+
+Several mistakes compose in one fixed order: the scene's (a re-render of the changed scene, with the
+half-pixel footprint where it is in), then tonemap, sRGB, exposure, then the flips (which commute with
+everything after the render).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Hypothesis:
+    """One mistake: its name, where its forward model acts, its fitted parameter (or None), in words."""
+
+    name: str
+    stage: str  # "scene" | "render" | "radiance" | "image"
+    parameter: str | None
+    meaning: str
+
+
+HYPOTHESES = (
+    Hypothesis("mirror_x", "image", None, "the image is flipped left-right"),
+    Hypothesis("mirror_y", "image", None, "the image is flipped upside down"),
+    Hypothesis("env_rotation", "scene", "angle_deg", "the environment is turned about +Y by angle_deg "
+               "(right-handed, as environment.rotation_deg)"),
+    Hypothesis("env_u_mirror", "scene", None, "the environment map's u is mirrored (u -> 1 - u: x -> -x)"),
+    Hypothesis("fov_horizontal", "scene", None, "camera.fov_deg is taken as the horizontal field of view"),
+    Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance"),
+    Hypothesis("exposure", "radiance", "factor", "the image is scaled by a constant factor"),
+    Hypothesis("half_pixel", "render", None, "pixel centres at integers: the image is shifted by half a pixel "
+               "up and left"),
+    Hypothesis("tonemap", "radiance", "operator", "a tone operator is applied (display-linear values are "
+                                                   "written as radiance)"),
+)
+BY_NAME = {h.name: h for h in HYPOTHESES}
+NAMES = tuple(BY_NAME)
+#: the scene-level mistakes: they need a re-render of the reference
+SCENE_LEVEL = ("env_rotation", "env_u_mirror", "fov_horizontal")
+
+
+def horizontal_fov_as_vertical(fov_deg: float, width: int, height: int) -> float:
+    """The vertical field of view an engine gets when it reads `fov_deg` as the horizontal one.
+
+    With a horizontal fov F the half-width of the image plane at distance 1 is tan(F / 2), its half-height
+    tan(F / 2) H / W, so the vertical fov is 2 atan(tan(F / 2) H / W) (gluPerspective's relation).
+    """
+    return math.degrees(2.0 * math.atan(math.tan(math.radians(fov_deg) / 2.0) * height / width))
+
+
+def mirror_u(env: np.ndarray) -> np.ndarray:
+    """The map with u mirrored: columns reversed.
+
+    Texel c has its centre at u = (c + 1/2) / W (lookup's col = u W - 1/2); reversing the columns puts
+    texel W - 1 - c there, whose centre is at 1 - u, so a lookup at u of the new map is exactly a lookup
+    at 1 - u of the old one (bilinear weights included).
+    """
+    return np.ascontiguousarray(np.asarray(env)[:, ::-1])
+
+
+def srgb_oetf(rgb: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1's sRGB encoding per channel, not clamped above 1 (as three.js's sRGBTransferOETF).
+
+    x <= 0.0031308: 12.92 x; else 1.055 x^(1/2.4) - 0.055; negative values become 0.
+    """
+    x = np.maximum(np.asarray(rgb, np.float64), 0.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
+
+
+def half_pixel_shift(supersampled: np.ndarray) -> np.ndarray:
+    """An image whose pixel (i, j) covers [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2], from a 2x supersampled one.
+
+    `supersampled` (2H, 2W, C) is a box-filtered render at twice the resolution: its pixel (a, b) covers
+    [b / 2, (b + 1) / 2] x [a / 2, (a + 1) / 2] in the image's pixel units, so the 2 x 2 block of rows
+    2i - 1, 2i and columns 2j - 1, 2j covers the shifted pixel exactly: the box average over the shifted
+    footprint, no interpolation. Row and column -1 (outside the frame) repeat row and column 0.
+    """
+    s = np.asarray(supersampled, np.float64)
+    padded = np.pad(s, ((1, 0), (1, 0), (0, 0)), mode="edge")[:-1, :-1]  # padded[a] = s[a - 1]
+    h, w = padded.shape[0] // 2, padded.shape[1] // 2
+    return padded.reshape(h, 2, w, 2, -1).mean(axis=(1, 3))
+
+
+def block_average(supersampled: np.ndarray) -> np.ndarray:
+    """The 1x image of a 2x supersampled box-filtered one (2 x 2 block means): the unshifted footprint."""
+    s = np.asarray(supersampled, np.float64)
+    h, w = s.shape[0] // 2, s.shape[1] // 2
+    return s.reshape(h, 2, w, 2, -1).mean(axis=(1, 3))
+
+
+def flip(rgb: np.ndarray, mistakes: dict) -> np.ndarray:
+    """The image-stage mistakes of `mistakes`: mirror_x reverses the columns, mirror_y the rows."""
+    if "mirror_x" in mistakes:
+        rgb = rgb[:, ::-1]
+    if "mirror_y" in mistakes:
+        rgb = rgb[::-1]
+    return rgb
+
+
+def fit_exposure(prediction: np.ndarray, image: np.ndarray, mask: np.ndarray) -> float:
+    """The factor k minimising sum over masked pixels and channels of (k P - I)^2: k = <P, I> / <P, P>.
+
+    1 when the prediction is black over the mask (no factor is defined).
+    """
+    p = np.asarray(prediction, np.float64)[mask]
+    i = np.asarray(image, np.float64)[mask]
+    pp = float((p * p).sum())
+    return float((p * i).sum() / pp) if pp > 0 else 1.0

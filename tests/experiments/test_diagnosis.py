@@ -1,0 +1,222 @@
+"""`iblcheck diagnose` names exactly the convention mistakes planted in an engine image of builtin:calibration.
+
+Each planted image is the scene's reference rendered with the second seed (independent noise, as another
+renderer's image would have) and then made wrong by a route written here, never through the diagnosis'
+forward models: a flip with numpy, a re-render with the changed scene key, the map u-mirrored through
+`envmap.lookup` at x-mirrored directions, sRGB and the half-pixel shift by this file's own formulas (the
+shift from a 4x supersampled render, the diagnosis uses 2x). A correct image (the second seed; the
+real-time render) must give no mistake. The fitted angle must be within ANGLE_TOL_DEG, the fitted
+exposure within EXPOSURE_TOL (relative).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import scenes
+from experiments.measure import diagnosis
+from experiments.measure.diagnosis import fitting, hypotheses
+from scenes.environment import envmap
+from scenes.environment.calibration import calibration_map
+from scenes.environment.directions import equirect_directions
+from scenes.model import tone_operators
+from scenes.storage import imageio
+
+ANGLE_TOL_DEG = 1.0
+EXPOSURE_TOL = 0.02
+ANGLE = 37.0
+FACTORS = {"mirror_x+exposure": 1.7, "exposure": 0.6}
+
+
+# --------------------------------------------------------------------------- pure forward pieces (fast)
+
+
+def test_half_pixel_shift_of_a_ramp_is_the_ramp_half_a_pixel_back():
+    # a 2x render of f(x) = x (pixel units, box filtered): sub-pixel b holds the mean over [b/2, (b+1)/2]
+    w = 6
+    sub = (np.arange(2 * w) + 0.5) / 2.0
+    s = np.broadcast_to(sub[None, :, None], (4, 2 * w, 1))
+    shifted = hypotheses.half_pixel_shift(s)[0, :, 0]
+    # pixel j over [j - 1/2, j + 1/2] has mean j; the first repeats column 0 of the 2x image (its edge rule)
+    assert np.allclose(shifted[1:], np.arange(1, w))
+    assert np.isclose(shifted[0], 0.25)
+    assert np.allclose(hypotheses.block_average(s)[0, :, 0], np.arange(w) + 0.5)  # control: unshifted
+
+
+def test_horizontal_fov_relation():
+    assert math.isclose(hypotheses.horizontal_fov_as_vertical(40.0, 64, 64), 40.0)
+    # 90 degrees across 2:1 -> tan(v/2) = 1/2
+    assert math.isclose(hypotheses.horizontal_fov_as_vertical(90.0, 128, 64), math.degrees(2 * math.atan(0.5)))
+
+
+def test_u_mirror_is_the_lookup_at_x_mirrored_directions():
+    env = calibration_map(16, 32).astype(np.float32)
+    d = np.random.default_rng(1).normal(size=(500, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    mirrored = envmap.lookup(hypotheses.mirror_u(env), d)
+    assert np.allclose(mirrored, envmap.lookup(env, d * [-1.0, 1.0, 1.0]), atol=1e-5)
+    assert not np.allclose(mirrored, envmap.lookup(env, d * [1.0, 1.0, -1.0]), atol=1e-2)  # control: z mirror
+
+
+def test_srgb_and_exposure_by_hand():
+    assert np.allclose(hypotheses.srgb_oetf(np.array([0.0, 0.001, 0.5, 1.0, 4.0])),
+                       [0.0, 0.01292, 0.735357, 1.0, 1.055 * 4 ** (1 / 2.4) - 0.055], atol=1e-6)
+    p = np.random.default_rng(2).random((8, 8, 3))
+    mask = np.ones((8, 8), bool)
+    assert math.isclose(hypotheses.fit_exposure(p, 2.5 * p, mask), 2.5)
+
+
+# --------------------------------------------------------------------------- planted mistakes (Mitsuba)
+
+
+def _srgb(x):  # IEC 61966-2-1, not clamped above 1
+    x = np.maximum(x, 0.0)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+
+
+@pytest.fixture(scope="module")
+def calibration():
+    return scenes.load("builtin:calibration")
+
+
+@pytest.fixture(scope="module")
+def plant(calibration, tmp_path_factory):
+    """plant(names) -> the second-seed image of builtin:calibration with the planted mistakes."""
+    import groundtruth  # deferred: Mitsuba starts only for the tests that plant
+    from groundtruth.pathtracer.reference import second_seed
+
+    seed = second_seed(calibration.reference.seed)
+    folder = tmp_path_factory.mktemp("planted")
+
+    def render(overrides: dict, factor: int = 1, spp: int | None = None) -> np.ndarray:
+        c = calibration.camera
+        overrides = {**overrides, "camera.width": c.width * factor, "camera.height": c.height * factor}
+        return np.asarray(groundtruth.render(calibration.with_overrides(overrides), spp=spp, seed=seed).rgb,
+                          np.float64)
+
+    def make(names: tuple[str, ...], pair: str) -> np.ndarray:
+        overrides: dict = {}
+        if "env_rotation" in names:
+            overrides["environment.rotation_deg"] = ANGLE
+        if "env_u_mirror" in names:
+            env = calibration.environment.radiance()
+            h, w = env.shape[:2]
+            path = folder / "u-mirrored.exr"
+            imageio.write_exr(path, envmap.lookup(env, equirect_directions(h, w) * [-1.0, 1.0, 1.0]))
+            overrides["environment.map"] = str(path)
+        if "fov_horizontal" in names:
+            c = calibration.camera
+            overrides["camera.fov_deg"] = math.degrees(2 * math.atan(math.tan(math.radians(c.fov_deg / 2)) / c.aspect))
+        if "half_pixel" in names:
+            big = render(overrides, 4, spp=max(1, calibration.reference.spp // 16))
+            big = np.concatenate([big[:2], big], axis=0)[:-2]  # two sub-rows up: row -1/2 .. row H - 1/2
+            big = np.concatenate([big[:, :2], big], axis=1)[:, :-2]
+            img = big.reshape(big.shape[0] // 4, 4, big.shape[1] // 4, 4, 3).mean(axis=(1, 3))
+        else:
+            img = render(overrides)
+        if "tonemap" in names:
+            img = tone_operators.apply("agx", img)
+        if "srgb_encoded" in names:
+            img = _srgb(img)
+        if "exposure" in names:
+            img = img * FACTORS[pair if pair in FACTORS else "exposure"]
+        if "mirror_x" in names:
+            img = img[:, ::-1]
+        if "mirror_y" in names:
+            img = img[::-1]
+        return img
+
+    return make
+
+
+def _check(found: diagnosis.Diagnosis, planted: tuple[str, ...], pair: str):
+    names = {s.name: s for s in found.mistakes}
+    assert set(names) == set(planted), (planted, found)
+    for s in found.mistakes:
+        assert s.gain_db >= s.threshold_db >= 1.0
+    if "env_rotation" in names:
+        assert abs(names["env_rotation"].parameter - ANGLE) <= ANGLE_TOL_DEG
+    if "exposure" in names:
+        want = FACTORS[pair if pair in FACTORS else "exposure"]
+        assert abs(names["exposure"].parameter / want - 1) <= EXPOSURE_TOL
+    if "tonemap" in names:
+        assert names["tonemap"].parameter == "agx"
+    assert found.psnr_after >= found.psnr_before + 1.0
+
+
+CASES = [(n,) for n in hypotheses.NAMES] + [
+    ("mirror_x", "exposure"), ("env_rotation", "srgb_encoded"), ("fov_horizontal", "half_pixel"),
+    ("env_u_mirror", "tonemap")]
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+@pytest.mark.parametrize("planted", CASES, ids=["+".join(c) for c in CASES])
+def test_the_planted_mistakes_are_named(calibration, plant, planted):
+    pair = "+".join(planted)
+    _check(diagnosis.diagnose(calibration, plant(planted, pair)), planted, pair)
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_a_correct_image_gives_nothing(calibration, plant):
+    found = diagnosis.diagnose(calibration, plant((), ""))
+    assert found.mistakes == ()
+    assert found.psnr_after == found.psnr_before
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_a_wrong_forward_model_misses_its_mistake(calibration, plant, monkeypatch):
+    """Negative control: with mirror_x's model broken (no flip), the planted flip is not explained by it."""
+    monkeypatch.setattr(fitting.hypotheses, "flip", lambda rgb, mistakes: rgb)
+    found = diagnosis.diagnose(calibration, plant(("mirror_x",), "mirror_x"))
+    assert "mirror_x" not in {s.name for s in found.mistakes}
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_the_realtime_render_gives_nothing(calibration):
+    import realtime  # deferred: needs an OpenGL context
+
+    found = diagnosis.diagnose(calibration, np.asarray(realtime.render(calibration).rgb, np.float64))
+    assert found.mistakes == (), found
+
+
+# --------------------------------------------------------------------------- the command
+
+
+def _iblcheck(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "experiments.cli", *args], capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("size", [(64, 64), (96, 63)])
+def test_an_image_of_the_wrong_size_exits_2(tmp_path, size):
+    path = tmp_path / "engine.exr"
+    imageio.write_exr(path, np.ones((size[1], size[0], 3), np.float32))
+    r = _iblcheck("diagnose", "builtin:calibration", "--image", str(path))
+    assert r.returncode == 2 and r.stderr.startswith("error:") and "engine.exr" in r.stderr, r.stderr
+
+
+def test_a_missing_image_exits_2(tmp_path):
+    r = _iblcheck("diagnose", "builtin:calibration", "--image", str(tmp_path / "none.exr"))
+    assert r.returncode == 2 and "none.exr" in r.stderr, r.stderr
+
+
+@pytest.mark.mitsuba
+@pytest.mark.slow
+def test_the_command_reports_a_flip_in_json(tmp_path, plant):
+    path = tmp_path / "engine.exr"
+    imageio.write_exr(path, plant(("mirror_y",), "mirror_y").astype(np.float32))
+    r = _iblcheck("diagnose", "builtin:calibration", "--image", str(path), "--json")
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert [m["name"] for m in out["mistakes"]] == ["mirror_y"]
+    assert out["psnr_after"] > out["psnr_before"]
