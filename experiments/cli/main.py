@@ -162,7 +162,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub.choices["diagnose"].set_defaults(func=_cmd_diagnose)
 
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
-                        description="Run the paper's experiments E1 ... E10 in number order into OUT. Rows already "
+                        description="Run the paper's experiments E1 ... E12 in number order into OUT. Rows already "
                                     "in OUT/results.jsonl are reused, never computed again (an interrupted run "
                                     "resumes).")
     pa.add_argument("--out", default="reports/paper")

@@ -32,12 +32,13 @@ from experiments.paper import (
     e09_parameterizations,
     e10_voxel_cone_tracing,
     e11_split_sum,
+    e12_engines,
 )
 
 EXPERIMENTS: tuple[ModuleType, ...] = (
     e01_diffuse_sh, e02_glossy_lod_bias, e03_fresnel_blends, e04_frame_time, e05_reference_convergence,
     e06_stability, e07_accuracy_time_ladder, e08_occlusion, e09_parameterizations, e10_voxel_cone_tracing,
-    e11_split_sum)
+    e11_split_sum, e12_engines)
 
 _NAME = re.compile(r"^E0*([1-9][0-9]*)$", re.IGNORECASE)
 

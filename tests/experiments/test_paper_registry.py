@@ -31,8 +31,8 @@ PAPER = Path(__file__).resolve().parents[2] / "experiments" / "paper"
 def test_every_experiment_file_is_registered_once_in_number_order():
     files = sorted(p.stem for p in PAPER.glob("e[0-9][0-9]_*.py") if not p.stem.startswith("e06_hostile_"))
     assert [m.__name__.rsplit(".", 1)[1] for m in registry.EXPERIMENTS] == files
-    assert [m.NUMBER for m in registry.EXPERIMENTS] == list(range(1, 12))
-    assert registry.names() == [f"E{n}" for n in range(1, 12)]
+    assert [m.NUMBER for m in registry.EXPERIMENTS] == list(range(1, 13))
+    assert registry.names() == [f"E{n}" for n in range(1, 13)]
 
 
 @pytest.mark.parametrize("module", registry.EXPERIMENTS, ids=registry.name)
@@ -61,21 +61,21 @@ def test_names_find_experiments_case_insensitively(text, number):
     assert registry.find(text).NUMBER == number
 
 
-@pytest.mark.parametrize("text", ["E12", "E0", "8", "E", "E8,E9", "Ex", ""])
+@pytest.mark.parametrize("text", ["E13", "E0", "8", "E", "E8,E9", "Ex", ""])
 def test_other_names_find_nothing(text):
     assert registry.find(text) is None
 
 
 def test_select_keeps_number_order_and_names_the_unknown():
     assert [m.NUMBER for m in registry.select(["E10", "e8", "E08"])] == [8, 10]
-    with pytest.raises(ValueError, match=r"'E12' is no experiment; valid: E1, E2, .*, E11"):
-        registry.select(["E8", "E12"])
+    with pytest.raises(ValueError, match=r"'E13' is no experiment; valid: E1, E2, .*, E12"):
+        registry.select(["E8", "E13"])
 
 
 def test_paper_only_with_an_unknown_name_exits_2_naming_the_flag_the_value_and_the_valid_ones(capsys, tmp_path):
     assert main(["paper", "--quick", "--only", "E8,E13", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith("error: argument --only: 'E13'") and "E1, E2" in err and "E11" in err
+    assert err.startswith("error: argument --only: 'E13'") and "E1, E2" in err and "E12" in err
     assert len(err.splitlines()) == 1
     assert not (tmp_path / "out").exists()  # refused before anything ran
 
