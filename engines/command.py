@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import os
 import shlex
+import signal
 import subprocess
 import sys
 import tempfile
@@ -34,11 +35,10 @@ from pathlib import Path
 
 import numpy as np
 
-from engines import engine_timings
+from engines import engine_timings, linear_image
 from scenes import InputError, MissingCapability
 from scenes.exchange.export import export_scene
 from scenes.model.render import Render
-from scenes.storage import imageio
 
 #: the repository root (the builtin bridges live under it)
 REPO = Path(__file__).resolve().parents[1]
@@ -104,20 +104,40 @@ def engine_environment() -> dict[str, str]:
     return env
 
 
+def _stop(proc: subprocess.Popen) -> None:
+    """Kill the engine's whole process group (its browser or renderer children included)."""
+    try:
+        os.killpg(proc.pid, signal.SIGKILL)
+    except ProcessLookupError:
+        pass
+
+
 def run(argv: list[str], timeout_s: float, origin: str) -> subprocess.CompletedProcess:
     """Run the engine; map how it ended to the exceptions of the module docstring."""
     try:
-        done = subprocess.run(argv, capture_output=True, timeout=timeout_s, check=False, stdin=subprocess.DEVNULL,
-                              env=engine_environment())
+        # a session of its own, so that a timeout stops the engine's children too (a browser, a renderer)
+        proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+                                env=engine_environment(), start_new_session=True)
     except FileNotFoundError:
         raise MissingCapability(f"{origin}: the engine's program {argv[0]!r} was not found",
                                 hint="install it or fix the command (`make setup` installs the builtin bridges)") \
             from None
     except PermissionError:
         raise MissingCapability(f"{origin}: the engine's program {argv[0]!r} is not executable") from None
+    try:
+        stdout, stderr = proc.communicate(timeout=timeout_s)
     except subprocess.TimeoutExpired:
+        _stop(proc)
+        try:
+            _, stderr = proc.communicate(timeout=5)
+        except subprocess.TimeoutExpired:  # a child outside the group still holds the pipe: no stderr then
+            stderr = b""
         raise EngineRejected(f"{origin}: the engine did not finish within realtime.command.timeout_s = {timeout_s:g} s "
-                             f"({shlex.join(argv)[:200]})") from None
+                             f"({shlex.join(argv)[:200]}); its stderr: {_tail(stderr) or 'nothing'}") from None
+    except BaseException:  # Ctrl-C: no engine left running behind the interrupted command
+        _stop(proc)
+        raise
+    done = subprocess.CompletedProcess(argv, proc.returncode, stdout, stderr)
     if done.returncode in (EXIT_MISSING, EXIT_NOT_FOUND):
         raise MissingCapability(f"{origin}: the engine is missing (exit {done.returncode}): "
                                 f"{_tail(done.stderr) or 'no message'}")
@@ -128,28 +148,19 @@ def run(argv: list[str], timeout_s: float, origin: str) -> subprocess.CompletedP
 
 
 def read_image(path: Path, width: int, height: int, origin: str) -> tuple[np.ndarray, np.ndarray]:
-    """(rgb, mask) of the engine's image: linear radiance of the scene's size; the mask from its alpha (all True
-    without one: the comparison then uses the reference's coverage)."""
+    """(rgb, mask) of the engine's image (engines/linear_image.py): linear radiance of the scene's size; the
+    mask from its alpha (all True without one: the comparison then uses the reference's coverage)."""
     if not path.is_file():
         raise EngineRejected(f"{origin}: the engine exited 0 but wrote no image at {path}")
-    reader = imageio.read_pfm if path.suffix.lower() == ".pfm" else imageio.read_exr
     try:
-        rgb = reader(path)
+        image = linear_image.read(path)
     except InputError as exc:
         raise EngineRejected(f"{origin}: the engine's image: {exc}") from None
-    if rgb.shape[:2] != (height, width):
-        raise EngineRejected(f"{origin}: the engine's image {path.name} is {rgb.shape[1]}x{rgb.shape[0]}, the scene's "
-                             f"camera is {width}x{height} (camera.width x camera.height)")
-    bad = ~np.isfinite(rgb)
-    if bad.any():
-        raise EngineRejected(f"{origin}: the engine's image {path.name} has {int(bad.any(axis=-1).sum())} pixels with "
-                             "NaN or Inf")
-    if (rgb < 0).any():
-        raise EngineRejected(f"{origin}: the engine's image {path.name} has {int((rgb < 0).any(axis=-1).sum())} "
-                             "pixels with negative radiance")
-    alpha = imageio.read_exr_alpha(path) if reader is imageio.read_exr else None
-    mask = np.ones((height, width), bool) if alpha is None else np.nan_to_num(alpha) >= 0.5
-    return rgb.astype(np.float32), mask
+    if image.rgb.shape[:2] != (height, width):
+        raise EngineRejected(f"{origin}: the engine's image {path.name} is {image.rgb.shape[1]}x{image.rgb.shape[0]}, "
+                             f"the scene's camera is {width}x{height} (camera.width x camera.height)")
+    mask = np.ones((height, width), bool) if image.coverage is None else image.coverage
+    return image.rgb, mask
 
 
 def render(scene, workdir: str | Path | None = None) -> Render:
@@ -175,6 +186,5 @@ def render(scene, workdir: str | Path | None = None) -> Render:
         rgb, mask = read_image(output, scene.camera.width, scene.camera.height, origin)
         reported = engine_timings.read(timings, origin) if timings.is_file() else engine_timings.EngineTimings()
     meta = {"renderer": "command", "engine": reported.engine or scene.realtime.command.engine or argv[0],
-            "engine_version": reported.version, "command": shlex.join(argv), "coverage": "alpha" if not mask.all()
-            else "reference", "timings_note": reported.notes}
+            "engine_version": reported.version, "command": shlex.join(argv), "timings_note": reported.notes}
     return Render(rgb=rgb, mask=mask, timings=reported.as_render_timings(), meta=meta)

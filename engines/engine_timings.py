@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 
 from scenes import InputError
+from scenes.storage.files import read_input
 
 
 @dataclass(frozen=True)
@@ -56,18 +57,29 @@ def _text(tree: dict, key: str, path: Path) -> str:
     return value[:200]
 
 
+#: the largest timings file read (a few thousand frame times fit many times over)
+MAX_BYTES = 1 << 20
+
+
+def _no_constant(name: str):
+    raise ValueError(f"holds {name}, which is no JSON number")
+
+
 def read(path: Path, origin: str = "") -> EngineTimings:
     """Parse an engine's timings file (module docstring); InputError naming the file and key."""
     where = f"{origin}: {path}" if origin else str(path)
+    data = read_input(Path(path), "timings file", MAX_BYTES, InputError)
     try:
-        tree = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
+        tree = json.loads(data.decode("utf-8"), parse_constant=_no_constant)
+    except (UnicodeDecodeError, ValueError) as exc:
         raise InputError(f"{where}: not a readable JSON file of frame timings ({exc})") from None
     if not isinstance(tree, dict):
         raise InputError(f"{where}: must be a JSON object, got {type(tree).__name__}")
-    frames = tree.get("frame_ms", [])
-    if not isinstance(frames, list):
-        raise InputError(f"{where}: frame_ms = {frames!r}: must be a list of milliseconds")
+    frames = tree.get("frame_ms", None)
+    if frames is None:
+        frames = []
+    elif not isinstance(frames, list) or not frames:
+        raise InputError(f"{where}: frame_ms = {frames!r}: must be a non-empty list of milliseconds (or left out)")
     frame_ms = tuple(_ms(v, f"{where}: frame_ms[{i}]") for i, v in enumerate(frames))
     pre = tree.get("precompute_ms")
     return EngineTimings(engine=_text(tree, "engine", path), version=_text(tree, "version", path), frame_ms=frame_ms,

@@ -223,8 +223,12 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 
 def _cmd_compare(args: argparse.Namespace) -> int:
-    if args.image or args.image_encoding or args.tonemap or args.exposure is not None:
+    if args.image:
         return compare_image_cmd.run(args)
+    given = [flag for flag, value in (("--image-encoding", args.image_encoding), ("--tonemap", args.tonemap),
+                                      ("--exposure", args.exposure)) if value is not None]
+    if given:
+        raise UsageError(f"{', '.join(given)}: only with --image FILE (they say how an engine's image is encoded)")
     scene = load_scene(args.scene, args.set, args.sanitize)
     with outputs.progress("compare", 4) as step:
         result = gate.measure(scene, step, noise=False).metrics

@@ -16,15 +16,15 @@ Two kinds of image (docs/contract.md, the display-space rule):
   common mask of those display values. The linear metrics (rel_mse, psnr_unbiased) are None:
   "display-space metrics only (the image is tone-mapped sRGB)".
 
-An alpha channel is ignored (an engine writes alpha = 1 over the environment background; the reference's
-coverage decides which pixels count). Every problem with the file is a `scenes.InputError` naming it.
+A linear image is read by engines/linear_image.py, as an engine run as a command is: its OpenEXR alpha, when
+it has one, is the engine's coverage (alpha >= 0.5); without it the reference's coverage decides which pixels
+count. A PNG's alpha is ignored (a screenshot's alpha says nothing about coverage). The timings JSON is read by
+engines/engine_timings.py. Every problem with the file is a `scenes.InputError` naming it.
 """
 
 from __future__ import annotations
 
-import json
 import math
-import statistics
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,6 +32,7 @@ import imageio.v3 as iio
 import numpy as np
 
 import groundtruth
+from engines import engine_timings, linear_image
 from experiments.measure import comparison, metrics
 from experiments.measure.pair import Measurement, measure_pair
 from scenes import InputError
@@ -39,7 +40,6 @@ from scenes.model import tone_operators
 from scenes.model.render import Render
 from scenes.model.tonemap import srgb_decode, srgb_encode
 from scenes.storage import imageio as hdr_io
-from scenes.storage.files import read_input
 
 ENCODINGS = ("linear", "srgb")
 #: file suffixes per encoding
@@ -49,7 +49,6 @@ DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
 DISPLAY_ONLY = "display-space metrics only (the image is tone-mapped sRGB)"
 #: the timings JSON an engine may write beside its image: FRAME.exr -> FRAME.timings.json
 TIMINGS_SUFFIX = ".timings.json"
-MAX_TIMINGS_BYTES = 1 << 20
 
 
 @dataclass(frozen=True)
@@ -68,6 +67,7 @@ class EngineImage:
     engine: str | None = None
     engine_version: str | None = None
     alpha_ignored: bool = False
+    coverage: np.ndarray | None = None  # a linear OpenEXR's alpha >= 0.5, or None (engines/linear_image.py)
 
     @property
     def display_space(self) -> bool:
@@ -80,8 +80,8 @@ class EngineImage:
         h, w = rgb.shape[:2]
         meta = {"renderer": "image", "path": str(self.path), "encoding": self.encoding, "tonemap": self.tonemap,
                 "exposure": self.exposure, "engine": self.engine, "engine_version": self.engine_version}
-        return Render(rgb=np.asarray(rgb, np.float32), mask=np.ones((h, w), bool), timings=dict(self.timings),
-                      meta=meta)
+        mask = np.ones((h, w), bool) if self.coverage is None else self.coverage
+        return Render(rgb=np.asarray(rgb, np.float32), mask=mask, timings=dict(self.timings), meta=meta)
 
 
 def default_encoding(path: Path) -> str | None:
@@ -115,34 +115,22 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
         if tonemap != "none" or exposure != 1.0:
             raise InputError(f"{path}: a linear image is radiance, measured with the scene's own display transform; "
                              f"tone mapping {tonemap!r} and exposure {exposure:g} apply to an srgb image only")
-        values, bits, alpha = _read_linear(path, suffix), None, False
+        linear = linear_image.read(path)
+        values, bits, alpha, coverage = linear.rgb, None, False, linear.coverage
     else:
         if suffix in LINEAR_SUFFIXES:
             raise InputError(f"{path}: a {suffix} file holds linear radiance, not sRGB code values; read it as "
                              "encoding linear")
         values, bits, alpha = _read_display(path)
+        coverage = None
     h, w = values.shape[:2]
     if (w, h) != (scene.camera.width, scene.camera.height):
         raise InputError(f"{path}: image of {w} x {h} pixels; the scene {scene.name!r} renders "
                          f"{scene.camera.width} x {scene.camera.height} (camera.width x camera.height)")
     tpath = Path(timings) if timings is not None else path.with_name(path.name[: -len(path.suffix)] + TIMINGS_SUFFIX)
-    engine, version, tms = (None, None, {}) if timings is None and not tpath.is_file() else read_timings(tpath)
-    return EngineImage(path, encoding, tonemap, float(exposure), values, bits, tms, engine, version, alpha)
-
-
-def _read_linear(path: Path, suffix: str) -> np.ndarray:
-    rgb = LINEAR_SUFFIXES[suffix](path)  # EnvMapError (an InputError) naming the file; alpha ignored
-    bad = ~np.isfinite(rgb)
-    if bad.any():
-        y, x = np.argwhere(bad.any(axis=-1))[0]
-        raise InputError(f"{path}: {int(bad.any(axis=-1).sum())} pixel(s) hold NaN or Inf (first at row {y}, "
-                         f"column {x}); an engine's radiance must be finite")
-    neg = rgb < 0
-    if neg.any():
-        y, x = np.argwhere(neg.any(axis=-1))[0]
-        raise InputError(f"{path}: {int(neg.any(axis=-1).sum())} pixel(s) hold negative radiance (first at row "
-                         f"{y}, column {x}: {rgb[y, x].tolist()}); radiance is >= 0")
-    return rgb.astype(np.float32)
+    reported = engine_timings.EngineTimings() if timings is None and not tpath.is_file() else engine_timings.read(tpath)
+    return EngineImage(path, encoding, tonemap, float(exposure), values, bits, reported.as_render_timings(),
+                       reported.engine or None, reported.version or None, alpha, coverage)
 
 
 def _read_display(path: Path) -> tuple[np.ndarray, int, bool]:
@@ -166,42 +154,6 @@ def _read_display(path: Path) -> tuple[np.ndarray, int, bool]:
     elif not (raw.ndim == 3 and raw.shape[2] == 3):
         raise InputError(f"{path}: image of shape {raw.shape}; expected grey, RGB or RGBA")
     return raw.astype(np.float64) / top, bits, alpha
-
-
-def read_timings(path: Path) -> tuple[str | None, str | None, dict]:
-    """(engine, version, Render timings) of an engine's timings JSON: {"engine", "version", "frame_ms": [...],
-    "precompute_ms"}; draw and total are the median frame time."""
-    data = read_input(path, "timings file", MAX_TIMINGS_BYTES, InputError)
-    try:
-        tree = json.loads(data.decode("utf-8"), parse_constant=_reject)
-    except (UnicodeDecodeError, ValueError) as exc:
-        raise InputError(f"{path}: timings file is not JSON ({exc})") from None
-    if not isinstance(tree, dict):
-        raise InputError(f"{path}: timings file must hold a JSON object")
-    out: dict[str, float] = {}
-    frames = tree.get("frame_ms")
-    if frames is not None:
-        if not (isinstance(frames, list) and frames and all(_time(v) for v in frames)):
-            raise InputError(f"{path}: frame_ms must be a non-empty list of finite times >= 0 (ms)")
-        out["draw"] = out["total"] = float(statistics.median(frames))
-    pre = tree.get("precompute_ms")
-    if pre is not None:
-        if not _time(pre):
-            raise InputError(f"{path}: precompute_ms {pre!r} must be a finite time >= 0 (ms)")
-        out["precompute"] = float(pre)
-    engine, version = tree.get("engine"), tree.get("version")
-    for key, value in (("engine", engine), ("version", version)):
-        if value is not None and not isinstance(value, str):
-            raise InputError(f"{path}: {key} must be a string")
-    return engine, version, out
-
-
-def _reject(name: str):
-    raise ValueError(f"holds {name}")
-
-
-def _time(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v >= 0
 
 
 # --------------------------------------------------------------------------- display-space measurement

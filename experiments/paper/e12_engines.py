@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 import scenes
+from engines.command import EngineRejected
 from experiments.measure import metrics
 from experiments.measure.diagnosis import diagnose
 from experiments.measure.results import ResultRow
@@ -99,13 +100,36 @@ def run(context: Context, settings: Settings) -> Section:
         context.progress()
         exact_of[probe] = (scene, exact, e11.sphere_masks(scene))
     for engine, recipe in ENGINES.items():
+        steps = StepCounter(context)
         try:
-            results[engine] = run_engine(context, s, engine, recipe, exact_of)
-        except MissingCapability as exc:
-            absent[engine] = str(exc) + (f"; {exc.hint}" if exc.hint else "")
-            for _ in range(4 * len(s.probes)):
-                context.progress()
+            results[engine] = run_engine(steps, s, engine, recipe, exact_of)
+        except MissingCapability as exc:  # not installed here: absent, with the bridge's reason
+            absent[engine] = f"absent from this run: {exc}" + (f"; {exc.hint}" if exc.hint else "")
+        except EngineRejected as exc:  # installed, but it refused the scene or returned no usable image
+            absent[engine] = f"failed: {exc}"
+        for _ in range(4 * len(s.probes) - steps.count):
+            context.progress()
     return section(context, s, results, absent, exact_of)
+
+
+class StepCounter:
+    """The context, counting the progress steps taken through it (an engine that fails part way leaves the
+    rest of its steps to be taken by the caller)."""
+
+    def __init__(self, context: Context):
+        self.context, self.count = context, 0
+
+    def row(self, *args, **kwargs) -> ResultRow:
+        out = self.context.row(*args, **kwargs)  # one step, taken only when the row is there
+        self.count += 1
+        return out
+
+    def progress(self) -> None:
+        self.count += 1
+        self.context.progress()
+
+    def __getattr__(self, name: str):
+        return getattr(self.context, name)
 
 
 def pawn_overrides(s: Settings, probe: str) -> dict:
@@ -113,19 +137,17 @@ def pawn_overrides(s: Settings, probe: str) -> dict:
             "environment.map": f"builtin:{probe}"}
 
 
-def run_engine(context: Context, s: Settings, engine: str, recipe: str | None, exact_of) -> EngineResult:
+def run_engine(context: Context | StepCounter, s: Settings, engine: str, recipe: str | None, exact_of) -> EngineResult:
     out = EngineResult({}, {}, {}, {}, {}, {}, {}, {})
     for probe in s.probes:
         scene, exact, masks = exact_of[probe]
         grid = e11.grid_overrides(s.e11, probe)
-        row = context.row(e11.GRID, {**grid, **engine_overrides(engine)}, "E12")
-        if row.error:
-            raise MissingCapability(row.error)
+        row = checked(context.row(e11.GRID, {**grid, **engine_overrides(engine)}, "E12"))
         sc, test = context.image_of(row)
         out.grid_rows[probe], out.images[probe] = row, test
         truth = exact if TRUTH_OF[engine] == "quadrature" else context.reference_of(sc)
         out.truth[probe] = e11.score_spheres(sc, test, truth, masks)
-        pawn = context.row(e11.OBJECT, {**pawn_overrides(s, probe), **engine_overrides(engine)}, "E12")
+        pawn = checked(context.row(e11.OBJECT, {**pawn_overrides(s, probe), **engine_overrides(engine)}, "E12"))
         out.pawn_rows[probe] = pawn
         psc, ptest = context.image_of(pawn)
         if s.diagnose:
@@ -136,16 +158,27 @@ def run_engine(context: Context, s: Settings, engine: str, recipe: str | None, e
             context.progress()
             context.progress()
             continue
-        model_row = context.row(e11.GRID, {**grid, **e11.recipe_overrides(s.e11, recipe, True)}, "E12")
-        _, model = context.image_of(model_row)
+        model_row = checked(context.row(e11.GRID, {**grid, **e11.recipe_overrides(s.e11, recipe, True)}, "E12"))
+        msc, model = context.image_of(model_row)
         out.model[probe] = e11.score_spheres(sc, test, model, masks)
         out.recipe[probe] = e11.score_spheres(sc, model, exact, masks)
-        control = context.row(e11.OBJECT, {**pawn_overrides(s, probe), **e11.recipe_overrides(s.e11, recipe, False)},
-                              "E12")
+        control = checked(context.row(e11.OBJECT, {**pawn_overrides(s, probe),
+                                                   **e11.recipe_overrides(s.e11, recipe, False)}, "E12"))
         if s.diagnose:
+            out.controls[f"grid {probe}"] = found(msc, model)
             csc, ctest = context.image_of(control)
             out.controls[f"pawn {probe}"] = found(csc, ctest)
     return out
+
+
+class RowFailed(RuntimeError):
+    """A row whose reference (or real-time part) failed: the suite's error, not the engine's."""
+
+
+def checked(row: ResultRow) -> ResultRow:
+    if row.error:
+        raise RowFailed(f"{row.scene}: {row.error}")
+    return row
 
 
 def found(scene: scenes.Scene, image: Render) -> list[str]:
@@ -220,7 +253,7 @@ def section(context: Context, s: Settings, results: dict[str, EngineResult], abs
 def summarize(s: Settings, results: dict[str, EngineResult], absent: dict[str, str]) -> list[str]:
     out = []
     for engine, reason in absent.items():
-        out.append(f"{ENGINE_NAMES[engine]} is absent from this run: {reason}")
+        out.append(f"{ENGINE_NAMES[engine]} is {reason}")
     for engine, res in results.items():
         truth = _mean_db(res.truth)
         line = f"{ENGINE_NAMES[engine]}: {truth.mean():.2f} dB against {TRUTH_OF[engine]} on average"

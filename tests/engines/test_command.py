@@ -37,6 +37,7 @@ ENGINE = textwrap.dedent("""
     if fault == "reject":
         sys.stderr.write("x" * 2000 + "fake: cannot render this material\\n"); sys.exit(2)
     if fault == "sleep":
+        sys.stderr.write("fake: still compiling shaders\\n"); sys.stderr.flush()
         time.sleep(30)
     rgb = np.full((h, w, 3), 0.25, np.float32)
     if fault == "size":
@@ -74,7 +75,7 @@ def test_the_engine_image_and_its_timings_become_a_render(tmp_path):
     ("missing", 3, "my GPU library is not installed"),
     ("reject", 2, "cannot render this material"),
     ("size", 2, f"is {SIZE}x{SIZE - 1}, the scene's camera is {SIZE}x{SIZE}"),
-    ("nan", 2, "1 pixels with NaN or Inf"),
+    ("nan", 2, "1 pixel(s) hold NaN or Inf"),
     ("noimage", 2, "wrote no image"),
     ("badtimings", 2, "frame_ms[1] = -2.0"),
 ])
@@ -97,8 +98,9 @@ def test_a_missing_program_is_a_missing_capability(tmp_path):
 
 
 def test_an_engine_past_its_timeout_is_stopped_and_named(tmp_path):
-    with pytest.raises(command.EngineRejected, match=r"realtime.command.timeout_s = 1 s"):
+    with pytest.raises(command.EngineRejected, match=r"realtime.command.timeout_s = 1 s") as info:
         command.render(engine_scene(tmp_path, "--fault sleep", timeout_s=1))
+    assert "still compiling shaders" in str(info.value)  # what the engine said before it was stopped
 
 
 @pytest.mark.parametrize("template, words", [
@@ -116,7 +118,8 @@ def test_timings_file_values_are_checked_against_their_meaning(tmp_path):
     path.write_text(json.dumps({"frame_ms": [2.0, 4.0, 6.0], "engine": "x"}))
     t = engine_timings.read(path)
     assert t.as_render_timings()["draw"] == 4.0 and "precompute" not in t.as_render_timings()
-    for bad, key in (({"frame_ms": "fast"}, "frame_ms"), ({"precompute_ms": float("nan")}, "precompute_ms"),
+    for bad, key in (({"frame_ms": "fast"}, "frame_ms"), ({"frame_ms": []}, "frame_ms"),
+                     ({"precompute_ms": -1.0}, "precompute_ms"), ({"precompute_ms": float("nan")}, "NaN"),
                      ({"engine": 3}, "engine")):
         path.write_text(json.dumps(bad))
         with pytest.raises(scenes.InputError, match=key):
