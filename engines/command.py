@@ -10,7 +10,9 @@ bridge's (BUILTIN_TEMPLATES), with its placeholders filled:
     {output}     the image the engine writes: OpenEXR, linear radiance, width x height, row 0 at the top
                  (an alpha channel, when written, is the engine's coverage: a pixel is covered at alpha >= 0.5)
     {timings}    a JSON file the engine may write (engine_timings.py): its frame times, name and version
-    {width} {height} {python} {repo}
+    {width} {height}
+    {frames} {warmup}  realtime.timing_frames and realtime.warmup_frames: how many frames to time, after how many
+    {python} {repo}
 
 The template is split like a shell line (shlex) and run without a shell, each placeholder replaced inside
 its word, so a path with spaces stays one argument. How it ends:
@@ -45,14 +47,15 @@ REPO = Path(__file__).resolve().parents[1]
 #: the builtin bridges' command lines (engines/web/render.mjs, engines/cycles/render.py)
 BUILTIN_TEMPLATES = {
     "threejs": "node {repo}/engines/web/render.mjs --engine threejs --sidecar {sidecar} --output {output} "
-               "--timings {timings}",
+               "--timings {timings} --frames {frames} --warmup {warmup}",
     "babylon": "node {repo}/engines/web/render.mjs --engine babylon --sidecar {sidecar} --output {output} "
-               "--timings {timings}",
+               "--timings {timings} --frames {frames} --warmup {warmup}",
     # Cycles runs in its own virtual environment: bpy pins numpy < 2 (see the Makefile)
     "cycles": "{repo}/.venv-cycles/bin/python -m engines.cycles.render --sidecar {sidecar} --output {output} "
               "--timings {timings}",
 }
-PLACEHOLDERS = ("folder", "gltf", "environment", "sidecar", "output", "timings", "width", "height", "python", "repo")
+PLACEHOLDERS = ("folder", "gltf", "environment", "sidecar", "output", "timings", "width", "height", "frames", "warmup",
+                "python", "repo")
 #: how much of the engine's stderr an error line quotes (its end, where the reason usually is)
 STDERR_TAIL = 600
 #: the exit status a bridge uses to say its engine is missing, and the shell's "command not found"
@@ -179,7 +182,9 @@ def render(scene, workdir: str | Path | None = None) -> Render:
             stale.unlink(missing_ok=True)
         values = {"folder": str(exported.folder), "gltf": str(exported.gltf), "environment": str(exported.environment),
                   "sidecar": str(exported.sidecar), "output": str(output), "timings": str(timings),
-                  "width": str(scene.camera.width), "height": str(scene.camera.height), "python": sys.executable,
+                  "width": str(scene.camera.width), "height": str(scene.camera.height),
+                  "frames": str(scene.realtime.timing_frames), "warmup": str(scene.realtime.warmup_frames),
+                  "python": sys.executable,
                   "repo": str(REPO)}
         argv = command_line(template, values, origin)
         run(argv, scene.realtime.command.timeout_s, origin)

@@ -2,12 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Any
 
-import scenes
 from experiments.publish.outputs import UsageError  # defined below the CLI: the output checks raise it
-from scenes.exchange.fidelity import read_scenario
+from scenes.exchange import scene_spec
 from scenes.model.scene import parse_literal
 
 
@@ -24,7 +22,7 @@ def parse_sets(items: list[str] | None) -> dict[str, str]:
 
 def load_scene(spec: str, sets: list[str] | None = None, sanitize: bool = False):
     """A scene file, builtin:NAME or a glTF Render Fidelity scenario (.json), with `--set` overrides."""
-    scene = read_scenario(spec) if Path(spec).suffix.lower() == ".json" else scenes.load(spec)
+    scene = scene_spec.load(spec)
     overrides = parse_sets(sets)
     if sanitize:
         overrides["environment.sanitize"] = True

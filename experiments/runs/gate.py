@@ -59,7 +59,6 @@ from typing import Any
 import numpy as np
 
 import groundtruth
-import scenes
 from experiments.measure import comparison, engine_image, fields, metrics
 from experiments.measure.pair import measure_pair
 from experiments.publish.outputs import write_bytes, write_text
@@ -73,6 +72,7 @@ from experiments.runs.gate_statistics import (
 )
 from experiments.runs.rows import content_id, scene_content
 from scenes import InputError
+from scenes.exchange import scene_spec
 from scenes.storage.files import read_input
 
 CHECKS = (("min_psnr", "psnr", ">="), ("min_ssim", "ssim", ">="), ("max_flip", "flip", "<="))
@@ -235,7 +235,7 @@ def load(scene_specs: list[str], cli_thresholds: dict, sets: dict | None = None,
     """Every scene loaded and validated, with its thresholds (bad input fails before any render)."""
     loaded, keys = [], {}
     for spec in scene_specs:
-        s = scenes.load(spec)
+        s = scene_spec.load(spec)
         s = s.with_overrides(sets) if sets else s
         key = scene_key(spec)
         if not thresholds_required and key in keys:
@@ -329,6 +329,9 @@ def make_record(planned: Planned, m: Measured) -> dict:
             "iblcheck": iblcheck_version(),
             "techniques": m.test_meta.get("techniques"),
             "gl": m.test_meta.get("gl"),
+            # an external engine's image (engines/command.py or a manifest's): its name and version
+            **({"engine": f"{m.test_meta.get('engine')} {m.test_meta.get('engine_version') or ''}".strip()}
+               if m.test_meta.get("engine") else {}),
             "reference": {k: ref.get(k) for k in ("spp", "seed", "variant", "mitsuba", "plugin_version",
                                                   "integrator", "model", "key")},
             **m.digests,
@@ -407,6 +410,8 @@ def identity_differences(record: dict, entry: dict) -> list[str]:
         out.append("the reference differs: " + ", ".join(changed) + looser)
     elif a.get("reference_sha256") != b.get("reference_sha256"):
         out.append("the reference has the baseline's settings but other pixels (another machine or CPU?)" + looser)
+    if a.get("engine") != b.get("engine"):
+        out.append(f"the engine differs: {a.get('engine')} (baseline {b.get('engine')}){looser}")
     if a.get("gl") != b.get("gl"):
         out.append(f"the GL renderer differs: {a.get('gl')} (baseline {b.get('gl')}){looser}")
     if a.get("iblcheck") != b.get("iblcheck"):
@@ -470,6 +475,10 @@ def compare_record(record: dict, entry: dict, tolerances: dict) -> tuple[list[De
                         f"{tb:.2f} ms, above --max-time-ratio {limit:g}")
     deltas.append(d)
     warnings = identity_differences(record, entry)
+    if limit is not None and (tb is None or tn is None):  # a time limit asked for and no time to hold to it
+        which = "this run" if tn is None else "the baseline"
+        warnings.append(f"--max-time-ratio {limit:g} not checked: {which} has no frame time (an engine image without "
+                        "a timings file?)")
     return deltas, failures, warnings
 
 

@@ -25,13 +25,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-import scenes
 from experiments.measure import engine_image
 from experiments.measure.results import ResultRow
 from experiments.publish import images
 from experiments.runs.gate import Planned, scene_key, thresholds_for
 from experiments.runs.rows import content_id, file_digest, image_row_id, materials_of
 from scenes import InputError
+from scenes.exchange import scene_spec
 from scenes.model import tone_operators
 from scenes.storage.files import read_input
 
@@ -121,7 +121,7 @@ def load_images(manifest: str | Path, sets: dict | None = None) -> list[tuple[En
     for e in read_manifest(manifest):
         where = f"{manifest}: images[{e.index}]"
         try:
-            scene = scenes.load(e.spec)
+            scene = scene_spec.load(e.spec)
             scene = scene.with_overrides(sets) if sets else scene
         except InputError as exc:
             raise InputError(f"{where}.scene: {exc}") from None

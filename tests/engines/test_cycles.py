@@ -34,9 +34,10 @@ from tests.helpers import sphere_scene_text, write_scene
 REPO = Path(__file__).resolve().parents[2]
 SIZE, SPP = 64, 64
 #: mean((C - M)^2) may exceed the two renders' summed noise variance by this fraction: the export's
-#: resampled, RGBE-rounded map and the silhouette pixels leave up to ~0.2 to 0.6 beside the noise at
-#: roughness 0 (measured, 64 spp); the controls: 1.4 (kd 0.7: the ratio is what rejects it, 0.88) to > 7
-TOLERANCE = 1.0
+#: resampled, RGBE-rounded map and the silhouette pixels leave up to ~0.25 beside the noise (measured at 64
+#: spp: 1.01 diffuse, 1.21 a mirror, 1.03 roughness 0.2, 1.23 copper); the controls measured 1.4 and more
+#: (kd 0.7, whose 0.88 ratio also fails, the map turned by 20 degrees, roughness 0.3 for 0.2)
+TOLERANCE = 0.35
 #: sum(C) / sum(M) on the mask within this
 RATIO_TOLERANCE = 0.01
 

@@ -72,6 +72,8 @@ export function readSidecar(file) {
       file: existing(folder, s, "environment.file", file),
       rotationYDeg: number(s, "environment.rotation_y_deg", file),
       intensity: number(s, "environment.intensity", file, { min: 0 }),
+      width: number(s, "environment.width", file, { min: 1, max: 65536 }),
+      height: number(s, "environment.height", file, { min: 1, max: 65536 }),
     },
     camera: {
       yfov: number(s, "camera.yfov", file, { positive: true, max: Math.PI }),

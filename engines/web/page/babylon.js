@@ -73,7 +73,7 @@ export async function render(cfg) {
   const loadMs = performance.now() - t0;
 
   // the cube face: a power of two near the map's height / 2 (a quarter turn of the map per face)
-  const envHeight = cfg.environment.height ?? 256;
+  const envHeight = cfg.environment.height;
   const face = Math.min(1024, Math.max(32, 2 ** Math.round(Math.log2(envHeight / 2))));
   const theta = (ROTATION_SIGN * cfg.environment.rotationYDeg * Math.PI) / 180 + PANORAMA_TURN;
   const p0 = performance.now();
@@ -82,10 +82,11 @@ export async function render(cfg) {
   const sky = await loadHdrCube(`/scene/${cfg.environment.file}`, scene, Math.min(2048, SKY_FACE_SCALE * face), false);
   env.rotationY = theta;
   sky.rotationY = theta;
+  // the intensity once, on the textures (scene.environmentIntensity would multiply the lighting a second time)
   env.level = cfg.environment.intensity;
   sky.level = cfg.environment.intensity;
   scene.environmentTexture = env;
-  scene.environmentIntensity = cfg.environment.intensity;
+  scene.environmentIntensity = 1.0;
 
   // the skybox as createDefaultSkybox(texture, pbr = true) builds it: a PBR material without lighting shows its
   // reflection texture in SKYBOX_MODE linearly (a StandardMaterial would encode it to gamma space and clamp it)
