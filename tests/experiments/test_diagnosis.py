@@ -2,11 +2,11 @@
 
 Each planted image is the scene's reference rendered with the second seed (independent noise, as another
 renderer's image would have) and then made wrong by a route written here, never through the diagnosis'
-forward models: a flip with numpy, a re-render with the changed scene key, the map u-mirrored through
-`envmap.lookup` at x-mirrored directions, sRGB and the half-pixel shift by this file's own formulas (the
-shift from a 4x supersampled render, the diagnosis uses 2x). A correct image (the second seed; the
-real-time render) must give no mistake. The fitted angle must be within ANGLE_TOL_DEG, the fitted
-exposure within EXPOSURE_TOL (relative).
+forward models: a flip with numpy, a re-render with the changed scene key, the map u-mirrored as an
+engine mirrors it (exported to the viewer convention, its columns reversed there, read back), sRGB and
+the half-pixel shift by this file's own formulas (the shift from a 4x supersampled render, the diagnosis
+uses 2x). A correct image (the second seed; the real-time render) must give no mistake. The fitted angle
+must be within ANGLE_TOL_DEG, the fitted exposure within EXPOSURE_TOL (relative).
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from experiments.measure.diagnosis import fitting, hypotheses
 from scenes.environment import envmap
 from scenes.environment.calibration import calibration_map
 from scenes.environment.directions import equirect_directions
+from scenes.exchange import viewer_equirect
 from scenes.model import tone_operators
 from scenes.storage import imageio
 
@@ -55,13 +56,42 @@ def test_horizontal_fov_relation():
     assert math.isclose(hypotheses.horizontal_fov_as_vertical(90.0, 128, 64), math.degrees(2 * math.atan(0.5)))
 
 
-def test_u_mirror_is_the_lookup_at_x_mirrored_directions():
-    env = calibration_map(16, 32).astype(np.float32)
-    d = np.random.default_rng(1).normal(size=(500, 3))
-    d /= np.linalg.norm(d, axis=1, keepdims=True)
+Z_MIRROR = np.array([1.0, 1.0, -1.0])  # the viewer file's u -> 1 - u (atan2(d.z, d.x) -> -atan2(d.z, d.x))
+X_MIRROR = np.array([-1.0, 1.0, 1.0])  # iblcheck's own u -> 1 - u: the negative control
+
+
+def _unit(n: int, seed: int) -> np.ndarray:
+    d = np.random.default_rng(seed).normal(size=(n, 3))
+    return d / np.linalg.norm(d, axis=1, keepdims=True)
+
+
+@pytest.mark.parametrize("width", [32, 36])
+def test_u_mirror_is_the_lookup_at_z_mirrored_directions(width):
+    env = calibration_map(16, width).astype(np.float32)
+    d = _unit(500, 1)
     mirrored = envmap.lookup(hypotheses.mirror_u(env), d)
-    assert np.allclose(mirrored, envmap.lookup(env, d * [-1.0, 1.0, 1.0]), atol=1e-5)
-    assert not np.allclose(mirrored, envmap.lookup(env, d * [1.0, 1.0, -1.0]), atol=1e-2)  # control: z mirror
+    assert np.allclose(mirrored, envmap.lookup(env, d * Z_MIRROR), atol=1e-5)
+    assert not np.allclose(mirrored, envmap.lookup(env, d * X_MIRROR), atol=1e-2)  # control: x mirror
+
+
+def test_u_mirror_is_the_viewer_files_u_mirror():
+    # the route an engine takes: iblcheck's map exported to the viewer convention and read at 1 - u. At
+    # the viewer's texel centres (mirrored, still centres) the export is exact, so both must agree there
+    env = calibration_map(16, 32).astype(np.float32)
+    vmap = viewer_equirect.to_viewer(env)
+    centres = viewer_equirect.texel_directions(16, 32).reshape(-1, 3)
+    u, t = viewer_equirect.viewer_uv(centres)
+    engine = viewer_equirect.lookup(vmap, viewer_equirect.viewer_direction(1.0 - u, t))
+    assert np.allclose(engine, envmap.lookup(hypotheses.mirror_u(env), centres), atol=1e-5)
+    assert not np.allclose(engine, envmap.lookup(env[:, ::-1], centres), atol=1e-2)  # control: x mirror
+
+
+def test_u_mirror_of_an_odd_width_is_exact_at_the_texel_centres():
+    env = calibration_map(16, 33).astype(np.float32)
+    centres = equirect_directions(16, 33)[1:-1]  # the poles' rows: one direction, no u to mirror
+    mirrored = hypotheses.mirror_u(env)[1:-1]
+    assert np.allclose(mirrored, envmap.lookup(env, centres * Z_MIRROR), atol=1e-5)
+    assert not np.allclose(mirrored, envmap.lookup(env, centres * X_MIRROR), atol=1e-2)
 
 
 def test_srgb_and_exposure_by_hand():
@@ -105,10 +135,11 @@ def plant(calibration, tmp_path_factory):
         if "env_rotation" in names:
             overrides["environment.rotation_deg"] = ANGLE
         if "env_u_mirror" in names:
-            env = calibration.environment.radiance()
-            h, w = env.shape[:2]
+            # the engine's route: the map exported to the viewer convention, its u mirrored there (columns
+            # reversed: texel W - 1 - c is centred at 1 - u), read back into iblcheck's convention
+            vmap = viewer_equirect.to_viewer(calibration.environment.radiance())
             path = folder / "u-mirrored.exr"
-            imageio.write_exr(path, envmap.lookup(env, equirect_directions(h, w) * [-1.0, 1.0, 1.0]))
+            imageio.write_exr(path, viewer_equirect.from_viewer(vmap[:, ::-1]))
             overrides["environment.map"] = str(path)
         if "fov_horizontal" in names:
             c = calibration.camera

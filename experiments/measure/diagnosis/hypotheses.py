@@ -7,7 +7,7 @@ reference passed through its model matches that image better than the plain refe
 | name           | stage    | parameter      | forward model, applied to the reference                               |
 |----------------|----------|----------------|-----------------------------------------------------------------------|
 | env_rotation   | scene    | angle_deg      | re-rendered with environment.rotation_deg + angle (fitted)            |
-| env_u_mirror   | scene    |                | re-rendered with the map's columns reversed (u -> 1 - u)              |
+| env_u_mirror   | scene    |                | re-rendered with the viewer file's u mirrored (z -> -z, mirror_u)     |
 | fov_horizontal | scene    |                | re-rendered with the vertical fov 2 atan(tan(fov_deg / 2) H / W)      |
 | half_pixel     | render   |                | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2]   |
 | tonemap        | radiance | operator       | tone_operators.apply(operator, rgb) (display-linear, not encoded)     |
@@ -44,7 +44,8 @@ HYPOTHESES = (
     Hypothesis("mirror_y", "image", None, "the image is flipped upside down"),
     Hypothesis("env_rotation", "scene", "angle_deg", "the environment is turned about +Y by angle_deg "
                "(right-handed, as environment.rotation_deg)"),
-    Hypothesis("env_u_mirror", "scene", None, "the environment map's u is mirrored (u -> 1 - u: x -> -x)"),
+    Hypothesis("env_u_mirror", "scene", None, "the exported environment.hdr is read with u mirrored (the viewer "
+               "convention's u -> 1 - u: a lookup at (x, y, -z))"),
     Hypothesis("fov_horizontal", "scene", None, "camera.fov_deg is taken as the horizontal field of view"),
     Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance"),
     Hypothesis("exposure", "radiance", "factor", "the image is scaled by a constant factor"),
@@ -69,13 +70,28 @@ def horizontal_fov_as_vertical(fov_deg: float, width: int, height: int) -> float
 
 
 def mirror_u(env: np.ndarray) -> np.ndarray:
-    """The map with u mirrored: columns reversed.
+    """iblcheck's map as an engine that mirrors the u of the exported viewer-convention file sees it.
 
-    Texel c has its centre at u = (c + 1/2) / W (lookup's col = u W - 1/2); reversing the columns puts
-    texel W - 1 - c there, whose centre is at 1 - u, so a lookup at u of the new map is exactly a lookup
-    at 1 - u of the old one (bilinear weights included).
+    An engine mirrors the u of the file it reads: the exported `environment.hdr`, in the viewer
+    convention u_v = 0.5 + atan2(d.z, d.x) / (2 pi) (scenes/exchange/viewer_equirect.py). Reading it at
+    1 - u_v(d) is reading it at the direction d' with atan2(d'.z, d'.x) = -atan2(d.z, d.x), d' = (d.x,
+    d.y, -d.z): a z-mirror. In iblcheck's convention u_i = u_v - 1/4, so u_i(d') = 1 - u_v(d) - 1/4 =
+    1/2 - u_i(d): the new map M' has M'(u) = M(1/2 - u). With lookup's col = u W - 1/2, new column c
+    (u = (c + 1/2) / W) reads the old map at col (1/2 - u) W - 1/2 = W/2 - 1 - c. For even W that is a
+    whole column: M'[:, c] = M[:, (W/2 - 1 - c) mod W], and since the relation is affine in the column
+    (a reflection), bilinear weights map onto each other too: a lookup of M' at d equals a lookup of M
+    at d' everywhere. (Reversing iblcheck's own columns, u -> 1 - u, is x -> -x: the z-mirror plus a half
+    turn.) For odd W the old column is a half-integer: M'[:, c] is the mean of the two columns either
+    side, exactly M's lookup at d' on the texel centres, half a texel blurred between them (no map of
+    this convention reproduces the mirrored lookup exactly: its sample columns fall halfway).
     """
-    return np.ascontiguousarray(np.asarray(env)[:, ::-1])
+    env = np.asarray(env)
+    w = env.shape[1]
+    c = np.arange(w)
+    if w % 2 == 0:
+        return np.ascontiguousarray(env[:, (w // 2 - 1 - c) % w])
+    lo = (w // 2 - 1 - c) % w  # W/2 - 1 - c = (w // 2 - 1 - c) + 1/2
+    return 0.5 * (env[:, lo] + env[:, (lo + 1) % w])
 
 
 def srgb_oetf(rgb: np.ndarray) -> np.ndarray:
