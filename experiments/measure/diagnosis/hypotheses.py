@@ -4,21 +4,26 @@ A forward model says what an engine's image would be if the engine made the mist
 the reference (never to the engine's image), so that a mistake explains the engine's image when the
 reference passed through its model matches that image better than the plain reference does.
 
-| name           | stage    | parameter      | forward model, applied to the reference                               |
-|----------------|----------|----------------|-----------------------------------------------------------------------|
-| env_rotation   | scene    | angle_deg      | re-rendered with environment.rotation_deg + angle (fitted)            |
-| env_u_mirror   | scene    |                | re-rendered with the viewer file's u mirrored (z -> -z, mirror_u)     |
-| fov_horizontal | scene    |                | re-rendered with the vertical fov 2 atan(tan(fov_deg / 2) H / W)      |
-| half_pixel     | render   |                | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2]   |
-| tonemap        | radiance | operator       | tone_operators.apply(operator, rgb) (display-linear, not encoded)     |
-| srgb_encoded   | radiance |                | the sRGB transfer function on every channel (not clamped above 1)     |
-| exposure       | radiance | factor         | rgb x factor (fitted by least squares in linear radiance)             |
-| mirror_x       | image    |                | columns reversed                                                      |
-| mirror_y       | image    |                | rows reversed                                                         |
+| name             | stage    | image   | parameter | forward model, applied to the reference                      |
+|------------------|----------|---------|-----------|--------------------------------------------------------------|
+| env_rotation     | scene    | both    | angle_deg | re-rendered with environment.rotation_deg + angle (fitted)   |
+| env_u_mirror     | scene    | both    |           | re-rendered with the viewer file's u mirrored (z -> -z)      |
+| fov_horizontal   | scene    | both    |           | re-rendered with the vertical fov 2 atan(tan(fov/2) H / W)   |
+| half_pixel       | render   | both    |           | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, ..]|
+| tonemap          | radiance | both    | operator  | linear: tone_operators.apply(operator, rgb) written as       |
+|                  |          |         |           | radiance; display: another operator than the named one      |
+| srgb_encoded     | radiance | linear  |           | the sRGB encoding on every channel (not clamped above 1)     |
+| exposure         | radiance | both    | factor    | rgb x factor (linear: least squares; display: before the     |
+|                  |          |         |           | operator, 1-D search, display.py)                            |
+| srgb_not_encoded | display  | display |           | display-linear values written as code values                 |
+| srgb_twice       | display  | display |           | the sRGB encoding applied twice                              |
+| mirror_x         | image    | both    |           | columns reversed                                             |
+| mirror_y         | image    | both    |           | rows reversed                                                |
 
 Several mistakes compose in one fixed order: the scene's (a re-render of the changed scene, with the
-half-pixel footprint where it is in), then tonemap, sRGB, exposure, then the flips (which commute with
-everything after the render).
+half-pixel footprint where it is in), then, for a linear image, tonemap, sRGB, exposure, or, for a
+display image (display.py), exposure x the named exposure, the operator, the encoding; the flips
+commute with everything after the render.
 """
 
 from __future__ import annotations
@@ -28,15 +33,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+LINEAR, DISPLAY = "linear", "display"
+
 
 @dataclass(frozen=True)
 class Hypothesis:
-    """One mistake: its name, where its forward model acts, its fitted parameter (or None), in words."""
+    """One mistake: its name, where its forward model acts, its fitted parameter (or None), in words, and
+    the kinds of engine image it applies to (LINEAR radiance, DISPLAY: a tone-mapped sRGB PNG or JPEG)."""
 
     name: str
-    stage: str  # "scene" | "render" | "radiance" | "image"
+    stage: str  # "scene" | "render" | "radiance" | "image" | "display"
     parameter: str | None
     meaning: str
+    images: tuple[str, ...] = (LINEAR, DISPLAY)
 
 
 HYPOTHESES = (
@@ -47,17 +56,25 @@ HYPOTHESES = (
     Hypothesis("env_u_mirror", "scene", None, "the exported environment.hdr is read with u mirrored (the viewer "
                "convention's u -> 1 - u: a lookup at (x, y, -z))"),
     Hypothesis("fov_horizontal", "scene", None, "camera.fov_deg is taken as the horizontal field of view"),
-    Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance"),
-    Hypothesis("exposure", "radiance", "factor", "the image is scaled by a constant factor"),
+    Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance", (LINEAR,)),
+    Hypothesis("srgb_not_encoded", "display", None, "display-linear values are written without the sRGB "
+               "encoding", (DISPLAY,)),
+    Hypothesis("srgb_twice", "display", None, "the sRGB encoding is applied twice", (DISPLAY,)),
+    Hypothesis("exposure", "radiance", "factor", "the radiance is scaled by a constant factor (before the tone "
+               "operator in a display image)"),
     Hypothesis("half_pixel", "render", None, "pixel centres at integers: the image is shifted by half a pixel "
                "up and left"),
-    Hypothesis("tonemap", "radiance", "operator", "a tone operator is applied (display-linear values are "
-                                                   "written as radiance)"),
+    Hypothesis("tonemap", "radiance", "operator", "a tone operator is applied (linear image: display-linear "
+               "values are written as radiance; display image: another operator than the named one)"),
 )
 BY_NAME = {h.name: h for h in HYPOTHESES}
 NAMES = tuple(BY_NAME)
+#: the mistakes tested on each kind of image
+FOR_IMAGE = {kind: tuple(h.name for h in HYPOTHESES if kind in h.images) for kind in (LINEAR, DISPLAY)}
 #: the scene-level mistakes: they need a re-render of the reference
 SCENE_LEVEL = ("env_rotation", "env_u_mirror", "fov_horizontal")
+#: mistakes that cannot both be made (the encoding is left out or applied twice, not both)
+EXCLUDES = {"srgb_not_encoded": "srgb_twice", "srgb_twice": "srgb_not_encoded"}
 
 
 def horizontal_fov_as_vertical(fov_deg: float, width: int, height: int) -> float:
