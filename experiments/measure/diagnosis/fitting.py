@@ -1,11 +1,13 @@
 """The fitted parameters: the exposure factor, the tone operator and the environment's angle.
 
-    predict(renders, mistakes, image, mask) -> (prediction, mistakes with the exposure refitted)
-    candidate(name, renders, mistakes, scorer, image) -> the mistakes with `name` added, its parameter fitted
+    predict(renders, mistakes, scorer) -> (prediction, mistakes with the exposure refitted)
+    candidate(name, renders, mistakes, scorer) -> the mistakes with `name` added, its parameter fitted
 
 - exposure: the factor of least squares in linear radiance over the mask (hypotheses.fit_exposure),
   refitted whenever the other mistakes change, since it scales whatever they predict.
-- tonemap: each operator of scenes.model.tone_operators.NAMES except "none", the best-scoring one.
+- exposure on a display image: a 1-D search through the operator (display.Display.fit_exposure).
+- tonemap: each operator of scenes.model.tone_operators.NAMES except "none" (a display image: except the
+  one the user named), the best-scoring one.
 - env_rotation: the angle in (-180, 180]. Ranked cheaply first: the proxy render (renders.Renders.proxy)
   at every COARSE_STEP_DEG, then, around each of the TOP best coarse angles, a golden-section search on
   the proxy to REFINE_TOL_DEG; each refined angle is then scored with the real reference, and around the
@@ -33,29 +35,40 @@ FINAL_STEP_DEG = 1.0
 INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
 
 
-def operators() -> tuple[str, ...]:
-    """The tone operators a `tonemap` mistake may have applied."""
+def operators(scorer: Scorer) -> tuple[str, ...]:
+    """The tone operators a `tonemap` mistake may have applied: on a linear image any but "none"; on a
+    display image any other than the one the user named."""
+    if scorer.display is not None:
+        return tuple(n for n in tone_operators.NAMES if n != scorer.display.tonemap)
     return tuple(n for n in tone_operators.NAMES if n != "none")
 
 
-def finish(rgb: np.ndarray, mistakes: dict, image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, dict]:
-    """The radiance- and image-stage mistakes applied to a render (hypotheses' fixed order: tonemap, sRGB,
-    flips, exposure refitted last); returns the prediction and `mistakes` with its exposure factor."""
+def finish(rgb: np.ndarray, mistakes: dict, scorer: Scorer) -> tuple[np.ndarray, dict]:
+    """The radiance-, display- and image-stage mistakes applied to a render; returns the prediction and
+    `mistakes` with its exposure factor refitted. A linear image: hypotheses' fixed order (tonemap, sRGB,
+    flips, the exposure's least squares last). A display image: the flips, then display.Display.encode
+    (exposure x the named exposure, the operator, the encoding), the factor by Display.fit_exposure."""
+    if scorer.display is not None:
+        rgb = hypotheses.flip(rgb, mistakes)
+        if "exposure" in mistakes:
+            target = scorer.image[scorer.mask]
+            mistakes = {**mistakes, "exposure": scorer.display.fit_exposure(rgb, mistakes, target, scorer.mask)}
+        return scorer.display.encode(rgb, mistakes), mistakes
     if "tonemap" in mistakes:
         rgb = np.asarray(tone_operators.apply(mistakes["tonemap"], rgb), np.float64)
     if "srgb_encoded" in mistakes:
         rgb = hypotheses.srgb_oetf(rgb)
     rgb = hypotheses.flip(rgb, mistakes)
     if "exposure" in mistakes:
-        k = hypotheses.fit_exposure(rgb, image, mask)
+        k = hypotheses.fit_exposure(rgb, scorer.image, scorer.mask)
         rgb = rgb * k
         mistakes = {**mistakes, "exposure": k}
     return rgb, mistakes
 
 
-def predict(renders: Renders, mistakes: dict, image: np.ndarray, mask: np.ndarray) -> tuple[np.ndarray, dict]:
-    """The reference as an engine making `mistakes` would have rendered it (see hypotheses)."""
-    return finish(renders.render(mistakes), mistakes, image, mask)
+def predict(renders: Renders, mistakes: dict, scorer: Scorer) -> tuple[np.ndarray, dict]:
+    """The reference as an engine making `mistakes` would have written it (see hypotheses)."""
+    return finish(renders.render(mistakes), mistakes, scorer)
 
 
 def _wrap(angle: float) -> float:
@@ -65,12 +78,12 @@ def _wrap(angle: float) -> float:
     return 0.0 if a == -0.0 else a
 
 
-def fit_angle(renders: Renders, mistakes: dict, scorer: Scorer, image: np.ndarray) -> dict:
+def fit_angle(renders: Renders, mistakes: dict, scorer: Scorer) -> dict:
     """`mistakes` with env_rotation at its best angle (see the module docstring)."""
     base = {k: v for k, v in mistakes.items() if k != "env_rotation"}
 
     def proxy_mse(angle: float) -> float:
-        rgb, _ = finish(renders.proxy(base, angle), base, image, scorer.mask)
+        rgb, _ = finish(renders.proxy(base, angle), base, scorer)
         return float(scorer.errors(rgb).mean())
 
     coarse = np.arange(0.0, 360.0, COARSE_STEP_DEG)
@@ -83,7 +96,7 @@ def fit_angle(renders: Renders, mistakes: dict, scorer: Scorer, image: np.ndarra
 
     def mse(angle: float) -> float:
         trial = {**base, "env_rotation": _wrap(round(angle, 1))}
-        return float(scorer.errors(predict(renders, trial, image, scorer.mask)[0]).mean())
+        return float(scorer.errors(predict(renders, trial, scorer)[0]).mean())
 
     scored = sorted((mse(a), a) for a in refined)
     angle = _parabola_vertex(mse, scored[0][1], FINAL_STEP_DEG)
@@ -117,14 +130,13 @@ def _golden(f, lo: float, hi: float) -> float:
     return 0.5 * (a + b)
 
 
-def candidate(name: str, renders: Renders, mistakes: dict, scorer: Scorer, image: np.ndarray) -> dict:
+def candidate(name: str, renders: Renders, mistakes: dict, scorer: Scorer) -> dict:
     """`mistakes` with `name` added and its parameter fitted (the others' kept; exposure refitted)."""
     if name == "env_rotation":
-        return fit_angle(renders, mistakes, scorer, image)
+        return fit_angle(renders, mistakes, scorer)
     if name == "tonemap":
-        trials = [{**mistakes, "tonemap": op} for op in operators()]
-        scored = [(float(scorer.errors(predict(renders, t, image, scorer.mask)[0]).mean()), i)
-                  for i, t in enumerate(trials)]
+        trials = [{**mistakes, "tonemap": op} for op in operators(scorer)]
+        scored = [(float(scorer.errors(predict(renders, t, scorer)[0]).mean()), i) for i, t in enumerate(trials)]
         return trials[min(scored)[1]]
     if name == "exposure":
         return {**mistakes, "exposure": 1.0}  # fitted in finish

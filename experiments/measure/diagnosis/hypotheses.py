@@ -4,21 +4,26 @@ A forward model says what an engine's image would be if the engine made the mist
 the reference (never to the engine's image), so that a mistake explains the engine's image when the
 reference passed through its model matches that image better than the plain reference does.
 
-| name           | stage    | parameter      | forward model, applied to the reference                               |
-|----------------|----------|----------------|-----------------------------------------------------------------------|
-| env_rotation   | scene    | angle_deg      | re-rendered with environment.rotation_deg + angle (fitted)            |
-| env_u_mirror   | scene    |                | re-rendered with the map's columns reversed (u -> 1 - u)              |
-| fov_horizontal | scene    |                | re-rendered with the vertical fov 2 atan(tan(fov_deg / 2) H / W)      |
-| half_pixel     | render   |                | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, i + 1/2]   |
-| tonemap        | radiance | operator       | tone_operators.apply(operator, rgb) (display-linear, not encoded)     |
-| srgb_encoded   | radiance |                | the sRGB transfer function on every channel (not clamped above 1)     |
-| exposure       | radiance | factor         | rgb x factor (fitted by least squares in linear radiance)             |
-| mirror_x       | image    |                | columns reversed                                                      |
-| mirror_y       | image    |                | rows reversed                                                         |
+| name             | stage    | image   | parameter | forward model, applied to the reference                      |
+|------------------|----------|---------|-----------|--------------------------------------------------------------|
+| env_rotation     | scene    | both    | angle_deg | re-rendered with environment.rotation_deg + angle (fitted)   |
+| env_u_mirror     | scene    | both    |           | re-rendered with the viewer file's u mirrored (z -> -z)      |
+| fov_horizontal   | scene    | both    |           | re-rendered with the vertical fov 2 atan(tan(fov/2) H / W)   |
+| half_pixel       | render   | both    |           | pixel (i, j): the box over [j - 1/2, j + 1/2] x [i - 1/2, ..]|
+| tonemap          | radiance | both    | operator  | linear: tone_operators.apply(operator, rgb) written as       |
+|                  |          |         |           | radiance; display: another operator than the named one      |
+| srgb_encoded     | radiance | linear  |           | the sRGB encoding on every channel (not clamped above 1)     |
+| exposure         | radiance | both    | factor    | rgb x factor (linear: least squares; display: before the     |
+|                  |          |         |           | operator, 1-D search, display.py)                            |
+| srgb_not_encoded | display  | display |           | display-linear values written as code values                 |
+| srgb_twice       | display  | display |           | the sRGB encoding applied twice                              |
+| mirror_x         | image    | both    |           | columns reversed                                             |
+| mirror_y         | image    | both    |           | rows reversed                                                |
 
 Several mistakes compose in one fixed order: the scene's (a re-render of the changed scene, with the
-half-pixel footprint where it is in), then tonemap, sRGB, exposure, then the flips (which commute with
-everything after the render).
+half-pixel footprint where it is in), then, for a linear image, tonemap, sRGB, exposure, or, for a
+display image (display.py), exposure x the named exposure, the operator, the encoding; the flips
+commute with everything after the render.
 """
 
 from __future__ import annotations
@@ -28,15 +33,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+LINEAR, DISPLAY = "linear", "display"
+
 
 @dataclass(frozen=True)
 class Hypothesis:
-    """One mistake: its name, where its forward model acts, its fitted parameter (or None), in words."""
+    """One mistake: its name, where its forward model acts, its fitted parameter (or None), in words, and
+    the kinds of engine image it applies to (LINEAR radiance, DISPLAY: a tone-mapped sRGB PNG or JPEG)."""
 
     name: str
-    stage: str  # "scene" | "render" | "radiance" | "image"
+    stage: str  # "scene" | "render" | "radiance" | "image" | "display"
     parameter: str | None
     meaning: str
+    images: tuple[str, ...] = (LINEAR, DISPLAY)
 
 
 HYPOTHESES = (
@@ -44,19 +53,28 @@ HYPOTHESES = (
     Hypothesis("mirror_y", "image", None, "the image is flipped upside down"),
     Hypothesis("env_rotation", "scene", "angle_deg", "the environment is turned about +Y by angle_deg "
                "(right-handed, as environment.rotation_deg)"),
-    Hypothesis("env_u_mirror", "scene", None, "the environment map's u is mirrored (u -> 1 - u: x -> -x)"),
+    Hypothesis("env_u_mirror", "scene", None, "the exported environment.hdr is read with u mirrored (the viewer "
+               "convention's u -> 1 - u: a lookup at (x, y, -z))"),
     Hypothesis("fov_horizontal", "scene", None, "camera.fov_deg is taken as the horizontal field of view"),
-    Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance"),
-    Hypothesis("exposure", "radiance", "factor", "the image is scaled by a constant factor"),
+    Hypothesis("srgb_encoded", "radiance", None, "sRGB-encoded values are written as linear radiance", (LINEAR,)),
+    Hypothesis("srgb_not_encoded", "display", None, "display-linear values are written without the sRGB "
+               "encoding", (DISPLAY,)),
+    Hypothesis("srgb_twice", "display", None, "the sRGB encoding is applied twice", (DISPLAY,)),
+    Hypothesis("exposure", "radiance", "factor", "the radiance is scaled by a constant factor (before the tone "
+               "operator in a display image)"),
     Hypothesis("half_pixel", "render", None, "pixel centres at integers: the image is shifted by half a pixel "
                "up and left"),
-    Hypothesis("tonemap", "radiance", "operator", "a tone operator is applied (display-linear values are "
-                                                   "written as radiance)"),
+    Hypothesis("tonemap", "radiance", "operator", "a tone operator is applied (linear image: display-linear "
+               "values are written as radiance; display image: another operator than the named one)"),
 )
 BY_NAME = {h.name: h for h in HYPOTHESES}
 NAMES = tuple(BY_NAME)
+#: the mistakes tested on each kind of image
+FOR_IMAGE = {kind: tuple(h.name for h in HYPOTHESES if kind in h.images) for kind in (LINEAR, DISPLAY)}
 #: the scene-level mistakes: they need a re-render of the reference
 SCENE_LEVEL = ("env_rotation", "env_u_mirror", "fov_horizontal")
+#: mistakes that cannot both be made (the encoding is left out or applied twice, not both)
+EXCLUDES = {"srgb_not_encoded": "srgb_twice", "srgb_twice": "srgb_not_encoded"}
 
 
 def horizontal_fov_as_vertical(fov_deg: float, width: int, height: int) -> float:
@@ -69,13 +87,28 @@ def horizontal_fov_as_vertical(fov_deg: float, width: int, height: int) -> float
 
 
 def mirror_u(env: np.ndarray) -> np.ndarray:
-    """The map with u mirrored: columns reversed.
+    """iblcheck's map as an engine that mirrors the u of the exported viewer-convention file sees it.
 
-    Texel c has its centre at u = (c + 1/2) / W (lookup's col = u W - 1/2); reversing the columns puts
-    texel W - 1 - c there, whose centre is at 1 - u, so a lookup at u of the new map is exactly a lookup
-    at 1 - u of the old one (bilinear weights included).
+    An engine mirrors the u of the file it reads: the exported `environment.hdr`, in the viewer
+    convention u_v = 0.5 + atan2(d.z, d.x) / (2 pi) (scenes/exchange/viewer_equirect.py). Reading it at
+    1 - u_v(d) is reading it at the direction d' with atan2(d'.z, d'.x) = -atan2(d.z, d.x), d' = (d.x,
+    d.y, -d.z): a z-mirror. In iblcheck's convention u_i = u_v - 1/4, so u_i(d') = 1 - u_v(d) - 1/4 =
+    1/2 - u_i(d): the new map M' has M'(u) = M(1/2 - u). With lookup's col = u W - 1/2, new column c
+    (u = (c + 1/2) / W) reads the old map at col (1/2 - u) W - 1/2 = W/2 - 1 - c. For even W that is a
+    whole column: M'[:, c] = M[:, (W/2 - 1 - c) mod W], and since the relation is affine in the column
+    (a reflection), bilinear weights map onto each other too: a lookup of M' at d equals a lookup of M
+    at d' everywhere. (Reversing iblcheck's own columns, u -> 1 - u, is x -> -x: the z-mirror plus a half
+    turn.) For odd W the old column is a half-integer: M'[:, c] is the mean of the two columns either
+    side, exactly M's lookup at d' on the texel centres, half a texel blurred between them (no map of
+    this convention reproduces the mirrored lookup exactly: its sample columns fall halfway).
     """
-    return np.ascontiguousarray(np.asarray(env)[:, ::-1])
+    env = np.asarray(env)
+    w = env.shape[1]
+    c = np.arange(w)
+    if w % 2 == 0:
+        return np.ascontiguousarray(env[:, (w // 2 - 1 - c) % w])
+    lo = (w // 2 - 1 - c) % w  # W/2 - 1 - c = (w // 2 - 1 - c) + 1/2
+    return 0.5 * (env[:, lo] + env[:, (lo + 1) % w])
 
 
 def srgb_oetf(rgb: np.ndarray) -> np.ndarray:

@@ -2,7 +2,9 @@
 
 The score is the PSNR of display values (experiments.measure.metrics.display: the scene's tone mapping
 and sRGB encoding, the same for every image) over the reference's coverage mask eroded by one pixel
-(metrics.common_mask), the metric `iblcheck compare` reports. Every hypothesis is scored on the same
+(metrics.common_mask), the metric `iblcheck compare` reports; for a display image (a tone-mapped sRGB
+PNG or JPEG) the PSNR of its code values against the predicted ones (display.py), the metric
+`iblcheck compare --image` reports for it. Every hypothesis is scored on the same
 pixels: a flipped or re-rendered prediction is a whole image (the background is the environment), so
 its pixels under the mask are defined whatever the mistake moved there.
 
@@ -21,6 +23,7 @@ import math
 import numpy as np
 
 from experiments.measure import metrics
+from experiments.measure.diagnosis.display import Display
 
 #: the least gain a correction must bring to be reported
 MIN_GAIN_DB = 1.0
@@ -29,16 +32,28 @@ Z = 3.0
 
 
 class Scorer:
-    """The engine's image in display values and the pixels every prediction is scored on."""
+    """The engine's image in display values and the pixels every prediction is scored on.
 
-    def __init__(self, scene, image: np.ndarray, mask: np.ndarray):
+    A linear image (`display` None) and its predictions (radiance) go through the scene's display
+    transform; a display image (`display`: its operator, exposure and bit depth) is its code values, and
+    its predictions are code values already (display.Display.encode)."""
+
+    def __init__(self, scene, image: np.ndarray, mask: np.ndarray, display: Display | None = None):
         self.scene = scene
+        self.image = np.asarray(image, np.float64)
         self.mask = np.asarray(mask, bool)
-        self.target = np.asarray(metrics.display(scene, image), np.float64)[self.mask]
+        self.display = display
+        self.target = self.to_display(self.image)[self.mask]
+
+    def to_display(self, values: np.ndarray) -> np.ndarray:
+        """The display values a prediction (or the image) is scored in."""
+        if self.display is not None:
+            return np.asarray(values, np.float64)
+        return np.asarray(metrics.display(self.scene, values), np.float64)
 
     def errors(self, prediction: np.ndarray) -> np.ndarray:
         """(N,) the squared display error of each masked pixel, mean over channels."""
-        p = np.asarray(metrics.display(self.scene, prediction), np.float64)[self.mask]
+        p = self.to_display(prediction)[self.mask]
         return ((p - self.target) ** 2).mean(axis=1)
 
     @staticmethod

@@ -31,17 +31,19 @@ class Step:
     threshold_db: float
 
 
-def testable(renders: Renders) -> list[str]:
-    """The mistakes that change this scene's image: fov_horizontal needs a non-square image."""
+def testable(renders: Renders, display: bool = False) -> list[str]:
+    """The mistakes that apply to this kind of image (hypotheses.FOR_IMAGE) and change this scene's image:
+    fov_horizontal needs a non-square image."""
     c = renders.scene.camera
-    return [n for n in hypotheses.NAMES if not (n == "fov_horizontal" and c.width == c.height)]
+    names = hypotheses.FOR_IMAGE[hypotheses.DISPLAY if display else hypotheses.LINEAR]
+    return [n for n in names if not (n == "fov_horizontal" and c.width == c.height)]
 
 
-def select(renders: Renders, scorer: Scorer, image: np.ndarray, names: list[str]) -> tuple[dict, list[Step]]:
+def select(renders: Renders, scorer: Scorer, names: list[str]) -> tuple[dict, list[Step]]:
     """The accepted mistakes ({name: parameter}) and their steps, ordered by gain (largest first)."""
 
     def errors(m: dict) -> tuple[np.ndarray, dict]:
-        pred, fitted = fitting.predict(renders, m, image, scorer.mask)
+        pred, fitted = fitting.predict(renders, m, scorer)
         return scorer.errors(pred), fitted
 
     mistakes: dict = {}
@@ -49,9 +51,9 @@ def select(renders: Renders, scorer: Scorer, image: np.ndarray, names: list[str]
     while True:
         best = None
         for name in names:
-            if name in mistakes:
+            if name in mistakes or hypotheses.EXCLUDES.get(name) in mistakes:
                 continue
-            trial = fitting.candidate(name, renders, mistakes, scorer, image)
+            trial = fitting.candidate(name, renders, mistakes, scorer)
             err, fitted = errors(trial)
             gain, threshold = scorer.gain_db(current, err), scorer.threshold_db(current, err)
             if gain >= threshold and (best is None or gain > best[0]):
