@@ -62,6 +62,13 @@ def gate_images(args: argparse.Namespace) -> int:
 def sweep_images(args: argparse.Namespace) -> int:
     """One result row per manifest entry appended to OUT/results.jsonl (rows already there are kept)."""
     manifest = _manifest(args, "sweep")
+    sweep_only = {"--face-sizes": args.face_sizes, "--lod-biases": args.lod_biases, "--exponents": args.exponents,
+                  "--f0s": args.f0s, "--envs": args.envs, "--lod-mappings": args.lod_mappings, "--axis": args.axis,
+                  "--technique-axes": args.technique_axes, "--workers": args.workers, "--scheduler": args.scheduler}
+    given = [flag for flag, value in sweep_only.items() if value]
+    if given:
+        raise UsageError(f"{', '.join(given)}: not with --images (an engine's image is one configuration; sweep the "
+                         "engine's own settings and list each image in the manifest)")
     out_dir = Path(args.out)
     loaded = image_manifest.load_images(manifest, parse_sets(args.set))
     with outputs.Outputs() as plan, folder_lock(plan.folder(out_dir, "--out")):

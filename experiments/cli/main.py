@@ -40,6 +40,10 @@ from scenes.model.scene import SCHEMA
 EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
 
 
+#: `iblcheck sweep`'s default grid
+DEFAULT_FACE_SIZES, DEFAULT_LOD_BIASES = "8,16,32,64", "-1,0,1,2"
+
+
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's own errors: one line, exit 2
         print(f"error: {one_line(message)}", file=sys.stderr)
@@ -109,8 +113,8 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("scenes", nargs="*")
     s.add_argument("--images", metavar="MANIFEST", help="append one row per engine image the TOML/JSON manifest "
                    "lists (scene, image, encoding, tonemap, exposure, label) instead of sweeping")
-    s.add_argument("--face-sizes", default="8,16,32,64")
-    s.add_argument("--lod-biases", default="-1,0,1,2")
+    s.add_argument("--face-sizes", help=f"comma-separated face sizes (default {DEFAULT_FACE_SIZES})")
+    s.add_argument("--lod-biases", help=f"comma-separated LOD biases (default {DEFAULT_LOD_BIASES})")
     s.add_argument("--exponents", help="comma-separated Phong exponents (glossy scenes only)")
     s.add_argument("--f0s", help="comma-separated f0 values (blend scenes only)")
     s.add_argument("--envs", help="comma-separated environments (builtin:NAME or files)")
@@ -250,8 +254,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return image_manifest_cmd.sweep_images(args)
     if args.technique_axes:
         _warn_broken_plugins()
-    axes = sweep.Axes(face_sizes=parse_list(args.face_sizes, int, "--face-sizes"),
-                      lod_biases=parse_list(args.lod_biases, float, "--lod-biases"),
+    axes = sweep.Axes(face_sizes=parse_list(args.face_sizes or DEFAULT_FACE_SIZES, int, "--face-sizes"),
+                      lod_biases=parse_list(args.lod_biases or DEFAULT_LOD_BIASES, float, "--lod-biases"),
                       exponents=parse_list(args.exponents, float, "--exponents"),
                       f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
                       lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),

@@ -103,3 +103,14 @@ def test_ci_gates_its_renderer_against_a_baseline(tmp_path, capsys, cache):
     assert len(rows) == 1 and rows[0]["techniques"]["renderer"] == "image" and rows[0]["techniques"]["label"] == "mine"
     assert rows[0]["psnr"] == pytest.approx(rec[f"{SCENE}#mine"]["metrics"]["psnr"], abs=0)
     assert np.isfinite(rows[0]["psnr"])
+
+
+@pytest.mark.parametrize("flag, value", [("--face-sizes", "8,16"), ("--axis", "realtime.glossy=box"),
+                                         ("--workers", "2")])
+def test_sweep_options_are_refused_with_images(tmp_path, capsys, flag, value):
+    manifest = tmp_path / "m.toml"
+    manifest.write_text('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "x.exr"\n')
+    assert cli.main(["sweep", "--images", str(manifest), flag, value, "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith(f"error: {flag}") and "not with --images" in err and len(err.splitlines()) == 1
+    assert not (tmp_path / "o").exists()
