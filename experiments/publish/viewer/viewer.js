@@ -1,0 +1,1 @@
+/* placeholder: the report viewer (experiments/publish/viewer/viewer.js) replaces this file */
