@@ -16,23 +16,26 @@ bounded length).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import sys
 import traceback
 import warnings
+from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
 from experiments.cli import compare_image_cmd, diagnose_cmd, export_cmd, image_manifest_cmd, render_cmd
 from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
-from experiments.measure.results import folder_lock
+from experiments.measure.results import folder_lock, store_in
 from experiments.paper import registry
 from experiments.paper import suite as paper
 from experiments.paper.context import CommandLine
 from experiments.publish import outputs, report
 from experiments.publish.text import comparison_table, one_line
 from experiments.runs import gate, sweep
+from experiments.runs.rows import measured_row
 from scenes import InputError, MissingCapability
 from scenes.model import technique_registry, tone_operators
 from scenes.model.scene import SCHEMA
@@ -107,6 +110,8 @@ def build_parser() -> argparse.ArgumentParser:
                    "for those) or tone-mapped sRGB (PNG/JPEG: must be named, with --tonemap)")
     c.add_argument("--tonemap", choices=list(tone_operators.NAMES), help="the operator the engine applied (srgb)")
     c.add_argument("--exposure", type=tolerance("--exposure", positive=True), help="the engine's exposure (srgb)")
+    c.add_argument("--report", metavar="DIR", help="also write an HTML report of the comparison into DIR "
+                   "(index.html with the image viewer; the row is added to DIR/results.jsonl)")
     c.set_defaults(func=_cmd_compare)
 
     s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
@@ -153,6 +158,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="with --baseline: fail when the frame time exceeds R times the baseline's "
                         "(reported, never failed, without it)")
     g.add_argument("--set", action="append", metavar="K=V")
+    g.add_argument("--report", metavar="DIR", help="also write an HTML report of the gated scenes into DIR "
+                   "(index.html with the image viewer; their rows are added to DIR/results.jsonl)")
     g.set_defaults(func=_cmd_gate)
 
     rep = sub.add_parser("report", help="regenerate DIR/index.html from DIR/results.jsonl")
@@ -228,17 +235,49 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
 def _cmd_compare(args: argparse.Namespace) -> int:
     if args.image:
+        if args.report:
+            raise UsageError("--report: not with --image yet (a report holds iblcheck's own renders)")
         return compare_image_cmd.run(args)
     given = [flag for flag, value in (("--image-encoding", args.image_encoding), ("--tonemap", args.tonemap),
                                       ("--exposure", args.exposure)) if value is not None]
     if given:
         raise UsageError(f"{', '.join(given)}: only with --image FILE (they say how an engine's image is encoded)")
     scene = load_scene(args.scene, args.set, args.sanitize)
-    with outputs.progress("compare", 4) as step:
-        result = gate.measure(scene, step, noise=False).metrics
+    with outputs.Outputs() as plan, _report_folder(plan, args.report) as folder:
+        with outputs.progress("compare", 4) as step:
+            measured = gate.measure(scene, step, noise=False)
+        result = measured.metrics
+        if folder is not None:
+            overrides = {**parse_sets(args.set), **({"environment.sanitize": True} if args.sanitize else {})}
+            pair = measured.pair
+            _write_report(folder, [measured_row(folder, args.scene, overrides, scene, result, pair.measurement,
+                                                pair.test, pair.reference, pair.reference2)], "iblcheck compare")
     # an empty comparison (no covered or lit pixel) was a `warning:` line of measure_pair's
     print(json.dumps(result, allow_nan=False) if args.json else comparison_table([result]))
     return EXIT_OK
+
+
+@contextlib.contextmanager
+def _report_folder(plan: outputs.Outputs, path: str | None) -> Iterator[Path | None]:
+    """The folder of `--report DIR`, checked before anything renders and locked while the command runs
+    (None without the option)."""
+    if path is None:
+        yield None
+        return
+    folder = plan.folder(path, "--report")
+    for name in ("index.html", "summary.md", sweep.RESULTS):
+        plan.file(folder / name, "--report")
+    with folder_lock(folder):
+        yield folder
+
+
+def _write_report(folder: Path, new_rows: list, title: str) -> None:
+    """`new_rows` into folder/results.jsonl (replacing rows of the same ids: the same scene measured
+    again) and the report of all its rows (experiments/publish/report.py, with the viewer)."""
+    store = store_in(folder)
+    ids = {r.id for r in new_rows}
+    store.rewrite([r for r in store.read() if r.id not in ids] + list(new_rows))
+    report.build(folder, title=title)
 
 
 def _warn_broken_plugins() -> None:
@@ -267,6 +306,8 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
 
 
 def _cmd_gate(args: argparse.Namespace) -> int:
+    if args.images and args.report:
+        raise UsageError("--report: not with --images yet (a report holds iblcheck's own renders)")
     if args.images or not args.scenes:
         return image_manifest_cmd.gate_images(args)
     cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
@@ -282,17 +323,21 @@ def _cmd_gate(args: argparse.Namespace) -> int:
         junit = plan.file(args.junit, "--junit") if args.junit else None
         md = plan.file(args.markdown, "--markdown") if args.markdown else None
         record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
-        with outputs.progress("gate", 4 * len(loaded)) as step:
-            results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline))
-        for line in gate.warning_lines(results, baseline):
-            print(line, file=sys.stderr)
-        print(gate.format_table(results))
-        if junit:
-            gate.write_junit(junit, results)
-        if md:
-            gate.write_markdown(md, results, baseline)
-        if record:
-            gate.write_baseline(record, results)
+        with _report_folder(plan, args.report) as folder:
+            with outputs.progress("gate", 4 * len(loaded)) as step:
+                results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline),
+                                           report_dir=folder)
+            for line in gate.warning_lines(results, baseline):
+                print(line, file=sys.stderr)
+            print(gate.format_table(results))
+            if junit:
+                gate.write_junit(junit, results)
+            if md:
+                gate.write_markdown(md, results, baseline)
+            if record:
+                gate.write_baseline(record, results)
+            if folder is not None:
+                _write_report(folder, [r.row for r in results if r.row is not None], "iblcheck gate")
     return EXIT_OK if all(r.passed for r in results) else EXIT_GATE_FAILED
 
 

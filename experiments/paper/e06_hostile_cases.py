@@ -286,42 +286,82 @@ def hostile_rows(names=HOSTILE_NAMES) -> list:
 
 def page_problems(html: str) -> list[str]:
     """What in a report page could run script or reach the network: an element or attribute that a
-    hostile name smuggled in, a second script, a non-local source, a missing Content-Security-Policy."""
-    allowed = {"html", "head", "meta", "title", "style", "body", "h1", "h2", "p", "section", "table", "thead",
-               "tbody", "tr", "th", "td", "div", "figure", "figcaption", "img", "a", "details", "summary", "ul",
-               "li", "pre", "code", "script", "span"}
+    hostile name smuggled in, an inline script, a script, style sheet or data file from outside the
+    report folder, a missing Content-Security-Policy or one that lets inline script or eval run."""
+    allowed = {"html", "head", "meta", "title", "style", "link", "body", "h1", "h2", "p", "section", "table",
+               "thead", "tbody", "tr", "th", "td", "div", "figure", "figcaption", "img", "a", "details", "summary",
+               "ul", "li", "pre", "code", "script", "span"}
     problems: list[str] = []
 
     class Scan(HTMLParser):
-        scripts, csp = 0, False
+        scripts, policies, in_script = 0, [], False
 
         def handle_starttag(self, tag, attrs):
             if tag not in allowed:
                 problems.append(f"element <{tag}>")
-            for key, value in attrs:
-                value = value or ""
+            values = {key: value or "" for key, value in attrs}
+            for key, value in values.items():
                 if key.startswith("on"):
                     problems.append(f"attribute {key} on <{tag}>")
-                if key in ("src", "href") and value and not (value.startswith("data:image/png;base64,")
-                                                             or _local(value)):
+                # data-data: a file the viewer loads as a script (experiments/publish/viewer_data.py)
+                if key in ("src", "href", "data-data") and value and not (
+                        value.startswith("data:image/png;base64,") and tag == "img" or _local(value)):
                     problems.append(f"{key}={value[:40]!r} on <{tag}>")
                 if key == "http-equiv" and value.lower() == "content-security-policy":
-                    Scan.csp = True
-            Scan.scripts += tag == "script"
+                    Scan.policies.append(values.get("content", ""))
+            if tag == "script":
+                Scan.scripts += 1
+                Scan.in_script = True
+                if not values.get("src"):
+                    problems.append("an inline script (a <script> without src)")
+            if tag == "link" and values.get("rel", "").lower() != "stylesheet":
+                problems.append(f"<link rel={values.get('rel', '')[:40]!r}>")
+
+        def handle_endtag(self, tag):
+            if tag == "script":
+                Scan.in_script = False
+
+        def handle_data(self, data):
+            if Scan.in_script and data.strip():
+                problems.append("script text inside a <script> element")
 
     scan = Scan()
     scan.feed(html)
-    if Scan.scripts != 1:
-        problems.append(f"{Scan.scripts} script elements (the page has one: its table sorting)")
-    if not Scan.csp:
-        problems.append("no Content-Security-Policy")
+    if Scan.scripts == 0:
+        problems.append("no script element (the page loads viewer/viewer.js)")
+    if len(Scan.policies) != 1:
+        problems.append(f"{len(Scan.policies)} Content-Security-Policy elements (one expected)")
+    problems += [p for policy in Scan.policies for p in csp_problems(policy)]
     if PWNED + '="' in html:
         problems.append("a hostile attribute in the markup")
     return problems
 
 
+def csp_problems(policy: str) -> list[str]:
+    """What lets a page's Content-Security-Policy run more than the report's own script files: no
+    default-src 'none', a script-src missing or allowing inline script, eval, hashes, nonces or any
+    source but 'self' and file:, or a base-uri other than 'none'."""
+    directives = {}
+    for part in policy.split(";"):
+        words = part.split()
+        if words:
+            directives.setdefault(words[0].lower(), [w.lower() for w in words[1:]])
+    problems = []
+    if directives.get("default-src") != ["'none'"]:
+        problems.append("CSP: default-src is not 'none'")
+    scripts = directives.get("script-src")
+    if scripts is None:
+        problems.append("CSP: no script-src")
+    else:
+        problems += [f"CSP: script-src allows {w}" for w in scripts if w not in ("'self'", "file:")]
+    if directives.get("base-uri") != ["'none'"]:
+        problems.append("CSP: base-uri is not 'none'")
+    return problems
+
+
 def _local(value: str) -> bool:
-    return ":" not in value and not value.startswith("/") and ".." not in value
+    """A relative path inside the report folder: no scheme, not absolute, no '..', no backslash."""
+    return ":" not in value and not value.startswith("/") and ".." not in value and "\\" not in value
 
 
 def markdown_problems(md: str) -> list[str]:

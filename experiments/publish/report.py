@@ -6,16 +6,24 @@ PNG files under DIR/figures): PSNR and SSIM against LOD bias per face size, PSNR
 time with the Pareto front, filter and draw time against face size. Extra sections (the paper
 suite's experiments) come before them.
 
+The viewer: the rows table carries each row's scene, techniques and effects and the path of its data
+file (`data-*` attributes); viewer/viewer.js (package data from experiments/publish/viewer/, copied
+into DIR/viewer/) filters and sorts the tables and shows a row's linear images (the real-time image,
+the reference and its second seed, the error and FLIP maps) with an exposure control, flip, swipe,
+zoom and a pixel inspector. Its data are files beside the page, one per row and per reference,
+loaded when a row is opened (experiments/publish/viewer_data.py).
+
 Escaping: every value reaches the page through the template with autoescape on; a
 section is data (`Section.blocks`: tables, paragraphs, lists, figures), never HTML. Image sources
-are local paths or inline PNGs only, and a Content-Security-Policy lets only the page's own sorting
-script run and nothing load from the network, so a hostile name shows as text and runs nothing.
+are local paths or inline PNGs only. The page holds no inline script: its scripts are files in the
+report folder, and the Content-Security-Policy (`CSP`) lets only those run (no inline script, no
+eval) and nothing load from the network, so a hostile name shows as text and runs nothing. The data
+files are JSON with every non-ASCII character escaped (viewer_data.statement).
 """
 
 from __future__ import annotations
 
 import base64
-import hashlib
 import json
 import re
 from dataclasses import dataclass, field
@@ -26,7 +34,7 @@ from jinja2 import Environment, PackageLoader
 from markupsafe import Markup
 
 from experiments.measure.results import ResultRow, store_in
-from experiments.publish import outputs, plots
+from experiments.publish import outputs, plots, viewer_data
 from experiments.publish.text import html_text, md_cell, shorten, visible
 from scenes import InputError
 
@@ -172,9 +180,14 @@ def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] 
                           ("time_vs_face_size.png", plots.cost_vs_size, "filter and draw time against face size")):
         if rows and fn(rows, figdir / name):
             plot_list.append({"file": f"figures/{name}", "data": _inline(figdir / name), "alt": alt})
+    labels = {r.id: label(r) for r in rows}
+    viewer_data.copy_assets(out_dir)
+    data = viewer_data.write(out_dir, rows, labels)
     view_rows = [{"cells": table_cells(r), "at_floor": r.at_noise_floor,
                   "images": {k: local_src(r.images.get(k)) for k in ("realtime", "reference", "error", "flip")},
-                  "label": label(r), "psnr": fmt(r.psnr, ".2f")} for r in rows]
+                  "label": labels[r.id], "psnr": fmt(r.psnr, ".2f"), "id": r.id, "scene": r.scene,
+                  "technique": r.technique_label, "effects": " ".join(r.effects),
+                  "data": local_src(data.rows.get(r.id)), "why": data.missing.get(r.id, "")} for r in rows]
     html = render_page(title=title, subtitle=subtitle or f"{len(rows)} configurations", sections=sections or [],
                        plots=plot_list, rows=view_rows, columns=[{"title": t, "left": left} for t, left in COLUMNS])
     index = out_dir / "index.html"
@@ -196,8 +209,15 @@ def read_sections(path: Path) -> dict:
         raise InputError(f"{path}: {reason}; delete it to rebuild the page from results.jsonl alone") from None
 
 
-#: the page's only script (column sorting); the Content-Security-Policy allows it by its hash
-SORT_SCRIPT = "report_sort.js"
+#: the page's scripts and style sheet: files in the report folder (viewer_data.copy_assets), never inline
+SCRIPTS, STYLES = ("viewer/viewer.js",), ("viewer/viewer.css",)
+
+#: the page's Content-Security-Policy. Scripts: only files of the report folder ('self' for a report
+#: served over HTTP; `file:` for one opened from disk, where Chromium does not match 'self'); no inline
+#: script and no eval ('unsafe-inline' and 'unsafe-eval' are absent). Styles: the page's own <style>
+#: and the viewer's sheet. Images: local files and the inline plots. Nothing from the network.
+CSP = ("default-src 'none'; script-src 'self' file:; style-src 'self' 'unsafe-inline' file:; "
+       "img-src 'self' data: file:; base-uri 'none'; form-action 'none'")
 
 
 #: the most characters of a name shown in a table cell of the page; the full name is its tooltip
@@ -219,11 +239,7 @@ def render_page(**context) -> str:
                       finalize=lambda v: v if isinstance(v, Markup) else html_text(v))  # clip's escaped cells
     env.filters["local_src"] = local_src
     env.filters["clip"] = clip
-    script = env.get_template(SORT_SCRIPT).render()  # exactly what `{% include %}` puts in the page
-    digest = base64.b64encode(hashlib.sha256(script.encode()).digest()).decode()
-    csp = (f"default-src 'none'; script-src 'sha256-{digest}'; style-src 'unsafe-inline'; "
-           "img-src 'self' data: file:; base-uri 'none'; form-action 'none'")
-    return env.get_template("report.html.j2").render(csp=csp, **context)
+    return env.get_template("report.html.j2").render(csp=CSP, scripts=SCRIPTS, styles=STYLES, **context)
 
 
 def summary_markdown(title: str, rows: list[ResultRow], sections: list[Section], plot_list: list[dict]) -> str:

@@ -60,7 +60,8 @@ import numpy as np
 
 import groundtruth
 from experiments.measure import comparison, engine_image, fields, metrics
-from experiments.measure.pair import measure_pair
+from experiments.measure.pair import Measurement, measure_pair
+from experiments.measure.results import ResultRow
 from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
 from experiments.runs.gate_statistics import (
@@ -70,9 +71,10 @@ from experiments.runs.gate_statistics import (
     psnr_tolerance_db,
     worsened_beyond,
 )
-from experiments.runs.rows import content_id, scene_content
+from experiments.runs.rows import content_id, measured_row, scene_content
 from scenes import InputError
 from scenes.exchange import scene_spec
+from scenes.model.render import Render
 from scenes.storage.files import read_input
 
 CHECKS = (("min_psnr", "psnr", ">="), ("min_ssim", "ssim", ">="), ("max_flip", "flip", "<="))
@@ -122,6 +124,7 @@ class GateResult:
     baseline: str | None = None  # None (no baseline given), "compared" or "missing"
     deltas: list[Delta] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    row: ResultRow | None = None  # the scene's report row (`compare_all(..., report_dir=)`)
 
     @property
     def passed(self) -> bool:
@@ -255,6 +258,18 @@ class Measured:
     reference_meta: dict
     digests: dict
     seconds: float
+    # the pair itself, for a report of the run (`--report`, rows.measured_row); None for an engine image
+    pair: Pair | None = None
+
+
+@dataclass
+class Pair:
+    """The renders and the measurement behind a scene's metrics (what its report row keeps)."""
+
+    test: Render
+    reference: Render
+    reference2: Render | None
+    measurement: Measurement
 
 
 def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
@@ -277,7 +292,8 @@ def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True
     if noise and reference2 is not None:
         extra = metric_noise(m.test, m.reference, m.reference2, m.noise_mask, ssim_map=m.ssim_map, flip_map=m.flip_map)
     digests = {"image_sha256": _digest(test.rgb, test.mask), "reference_sha256": _digest(reference.rgb, reference.mask)}
-    return Measured(result, extra, dict(test.meta), dict(reference.meta), digests, time.perf_counter() - t0)
+    return Measured(result, extra, dict(test.meta), dict(reference.meta), digests, time.perf_counter() - t0,
+                    Pair(test, reference, reference2, m))
 
 
 def measure_image(scene, image, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
@@ -362,10 +378,13 @@ def flatten(tree: Any, prefix: str = "") -> dict[str, Any]:
 
 
 def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | None = None,
-                step: Callable[[str], None] | None = None, noise: bool = True) -> list[GateResult]:
+                step: Callable[[str], None] | None = None, noise: bool = True,
+                report_dir: Path | None = None) -> list[GateResult]:
     """Measure every planned scene, check its thresholds and, with `baseline` (read_baseline), compare
     it with its record (`tolerances`: tolerance_db, tolerance_ssim, tolerance_flip, max_time_ratio).
-    `noise=False` skips the metrics' noise estimates (a gate by thresholds alone needs none)."""
+    `noise=False` skips the metrics' noise estimates (a gate by thresholds alone needs none).
+    `report_dir`: each scene's result row, pictures and arrays are saved there (rows.measured_row, from
+    the measurement made here) and kept as `GateResult.row`, for the report `--report` writes."""
     results = []
     for p in loaded:
         p = p if isinstance(p, Planned) else Planned(p[0].path, p[0], p[1], {}, scene_key(p[0].path))
@@ -377,6 +396,9 @@ def compare_all(loaded: list, baseline: dict | None = None, tolerances: dict | N
         name = p.scene.name if p.image is None else f"{p.scene.name} [{p.label}]"
         r = GateResult(name, m.metrics, p.thresholds, evaluate(m.metrics, p.thresholds, allow_empty),
                        m.seconds, record)
+        if report_dir is not None and m.pair is not None:
+            r.row = measured_row(report_dir, p.spec, p.sets, p.scene, m.metrics, m.pair.measurement, m.pair.test,
+                                 m.pair.reference, m.pair.reference2)
         if allow_empty and m.metrics.get("no_signal"):
             r.warnings.append(f"empty comparison ({m.metrics['no_signal']}) passes: the scene's [gate] says "
                               "allow_empty = true")

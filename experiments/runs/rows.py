@@ -3,6 +3,7 @@
     content_id(scene, reference_only=False) -> str       # the row's identity (and the reference's)
     row_id(spec, overrides) -> str                        # the same, from a scene as named
     run_row(out_dir, spec, overrides, ...) -> ResultRow   # render, measure once, save the pictures
+    measured_row(out_dir, spec, overrides, scene, ...)    # the row of a pair measured already (compare, gate)
 
 Both executors use this module: the serial loop of experiments/runs/sweep.py and the Dask driver of
 experiments/runs/dask_cluster.py (which renders the references on workers and hands them to `run_row`).
@@ -31,6 +32,7 @@ import numpy as np
 
 import scenes
 from experiments.measure import comparison, convergence
+from experiments.measure.pair import Measurement
 from experiments.measure.results import ResultRow
 from experiments.publish import images
 from experiments.publish.text import one_line
@@ -129,21 +131,32 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
     `references`: the (reference, noise-floor reference) Renders already rendered elsewhere (a Dask
     task, experiments/runs/dask_cluster.py); only the real-time part runs here then."""
     scene = scenes.load(spec).with_overrides(overrides)
-    if references is None:
-        c = comparison.run(scene)
-    else:
-        c = comparison.compare_renders(comparison.render_realtime(scene), references[0], scene, references[1])
-    test = c.test
+    c = comparison.run(scene) if references is None else comparison.run(scene, *references)
+    # the second seed the comparison used, for the report's viewer: a hit in the reference cache, never a render
+    reference2 = references[1] if references is not None and references[1] is not None \
+        else comparison.second_reference(c.reference, scene)
+    row = measured_row(out_dir, spec, overrides, scene, c.metrics, c.measured, c.test, c.reference, reference2,
+                       experiment=experiment, extra=extra)
+    return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
+
+
+def measured_row(out_dir: Path, spec: str, overrides: dict, scene, m: dict, measured: Measurement, test: Render,
+                 reference: Render, reference2: Render | None, experiment: str | None = None,
+                 extra: dict | None = None) -> ResultRow:
+    """The row of a pair measured once (`comparison.compare`'s dict `m` and its `measured`), with its
+    pictures and arrays saved under out_dir/images (`images.save_comparison`: the real-time render, the
+    maps, the reference's radiance and the display transform the report's viewer shows). Used by
+    `run_row` and by `iblcheck compare/gate --report`, which have measured the pair already."""
     rid, ref_id = content_id(scene), content_id(scene, reference_only=True)
-    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, c.measured, test)
-    m = c.metrics
+    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / rid, measured, test, reference, reference2,
+                                  images.display_tonemap(scene))
     external = test.meta.get("renderer") == "command"  # an engine run as a command (engines/command.py)
     if external:
         techniques = {"renderer": "command", "engine": test.meta.get("engine"),
                       "engine_version": test.meta.get("engine_version")}
     else:
         techniques = test.meta.get("techniques") or technique.describe(scene)  # what ran, not_run included
-    row = ResultRow(
+    return ResultRow(
         id=rid, spec=spec, overrides=overrides, scene=scene.name, techniques=techniques,
         materials=materials_of(scene), env=scene.environment.map, effects=sorted(scene.effects),
         unsimulated_effects=m["unsimulated_effects"], width=scene.camera.width, height=scene.camera.height,
@@ -157,7 +170,6 @@ def run_row(out_dir: Path, spec: str, overrides: dict, experiment: str | None = 
         experiment=experiment, host=socket.gethostname(),
         gl_renderer=(f"{techniques['engine']} {techniques['engine_version'] or ''}".strip() if external
                      else renderer_name()), images=pics, extra=extra or {})
-    return row if convergence_curve is None else with_equal_quality(row, convergence_curve)
 
 
 def with_equal_quality(row: ResultRow, curve) -> ResultRow:
