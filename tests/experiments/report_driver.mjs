@@ -85,6 +85,8 @@ async function main() {
     page.on("console", (m) => result.console.push({ type: m.type(), text: m.text() }));
     page.on("pageerror", (e) => result.console.push({ type: "pageerror", text: String(e.message) }));
     page.on("requestfailed", (r) => result.failed.push(`${r.url()}: ${r.failure()?.errorText}`));
+    result.bad_responses = [];
+    page.on("response", (r) => { if (r.status() >= 400) result.bad_responses.push(`${r.status()} ${r.url()}`); });
     await page.evaluateOnNewDocument(() => {
       window.__violations = [];
       document.addEventListener("securitypolicyviolation", (e) => {
@@ -228,6 +230,7 @@ async function main() {
     }
 
     result.violations = await page.evaluate(() => window.__violations);
+    result.console_before_control = result.console.length;
     // control: an inline script inserted now must be refused by the page's CSP and reported as a violation
     result.inline_ran = await page.evaluate(async () => {
       const s = document.createElement("script");

@@ -137,7 +137,7 @@
         }
       }
       await Promise.all(jobs);
-      return { id, label: row.label || id, w, h, tonemap: row.tonemap || {}, psnr: row.psnr, images };
+      return { id, label: row.label || id, w, h, tonemap: row.tonemap || null, psnr: row.psnr, images };
     })();
     decoded.set(id, p);
     p.catch(() => decoded.delete(id));
@@ -188,7 +188,7 @@
         out[4 * i + 3] = 255;
       }
     } else {
-      const t = row.tonemap;
+      const t = row.tonemap || {};
       const key0 = t.key ?? 0.18, white = t.white ?? 1e30, adapt = Math.max(t.adapt_lum ?? 1, 1e-30);
       const scale = key0 / adapt * 2 ** (t.exposure ?? 0) * 2 ** stops;
       for (let i = 0; i < w * h; i++) {
@@ -535,7 +535,8 @@
     let ticket = 0;
     async function load(tr) {
       if (!tr.dataset.data) {
-        return Promise.reject(new Error("this row has no viewer data (it was measured before the report kept its images)"));
+        const why = tr.dataset.why || "the report kept no images for it";
+        return Promise.reject(new Error(`no images to view: ${why}`));
       }
       return openRow(tr);
     }
@@ -558,7 +559,7 @@
         }
         body.hidden = false;
         title.textContent = `${row.label}${row.psnr != null ? ` — PSNR ${Number(row.psnr).toFixed(2)} dB` : ""}`;
-        say("");
+        say(row.tonemap ? "" : "this row kept no tone mapping: shown with Reinhard key 0.18, adaptation luminance 1");
         mark();
         draw();
         root.dataset.openMs = (performance.now() - t0).toFixed(1);
