@@ -182,6 +182,12 @@ async function main() {
     await page.mouse.move(gb.left + 100, gb.top + 120);
     const panB = await readInspector();
     result.pan = { a: panA, b: panB };
+    // both canvases showing the test image after the zoom and pan: the same picture if the views are one
+    await page.select("#source-b", "test");
+    await page.mouse.move(0, 0);
+    await shoot("panned_a", "#canvas-a");
+    await shoot("panned_b", "#canvas-b");
+    await page.select("#source-b", "reference");
     await page.click("#reset-view");
 
     // flip: the mode button, then the key f shows B

@@ -230,6 +230,10 @@ def test_zoom_keeps_the_pixel_under_the_cursor_and_pan_moves_both_views(driven):
     assert side.shape == zoomed.shape and np.abs(side - zoomed).mean() > 3
     pan_a, pan_b = driven["pan"]["a"], driven["pan"]["b"]
     assert (pan_a["x"], pan_a["y"]) == (pan_b["x"], pan_b["y"])
+    # both canvases set to the test image after the zoom and pan draw the same picture, not the fitted one
+    a, b = picture(driven["screenshots"]["panned_a"]), picture(driven["screenshots"]["panned_b"])
+    assert np.array_equal(a, b)
+    assert np.abs(a - picture(driven["screenshots"]["side_canvas_a"])).mean() > 3  # control: it did move
 
 
 def test_flip_and_swipe(driven):
