@@ -109,21 +109,42 @@ def test_page_check_catches_an_unescaped_page(tmp_path, monkeypatch):
     assert any("onerror" in p for p in problems) and any("<svg>" in p for p in problems), problems
 
 
-def test_report_sources_are_local_and_the_policy_allows_only_its_own_script(hostile_report):
+def test_report_sources_are_local_and_the_policy_allows_only_its_own_script_files(hostile_report):
     html = (hostile_report / "index.html").read_text()
     assert "http://" not in html.split("<body>")[0] and "https://" not in html.split("<body>")[0]
     assert 'src="javascript:' not in html and 'src="https://' not in html and 'src="../' not in html
     from html import unescape
+    from html.parser import HTMLParser
 
     csp = unescape(html.split('http-equiv="Content-Security-Policy" content="', 1)[1].split('"', 1)[0])
-    assert "default-src 'none'" in csp and "script-src 'sha256-" in csp and "unsafe-inline" not in csp.split(
-        "style-src")[0]
-    import base64
-    import hashlib
+    directives = {d.split()[0]: d.split()[1:] for d in csp.split(";") if d.strip()}
+    # scripts: the report folder's files only (served: 'self'; opened from disk: file:), no inline, no eval
+    assert directives["default-src"] == ["'none'"] and directives["script-src"] == ["'self'", "file:"]
+    assert "unsafe-eval" not in csp and "unsafe-inline" not in " ".join(directives["script-src"])
+    scripts: list[tuple[dict, str]] = []
 
-    script = html.split("<script>", 1)[1].split("</script>", 1)[0]
-    digest = base64.b64encode(hashlib.sha256(script.encode()).digest()).decode()
-    assert f"'sha256-{digest}'" in csp  # the sorting script itself is allowed, and nothing else
+    class Scripts(HTMLParser):
+        inside = False
+
+        def handle_starttag(self, tag, attrs):
+            if tag == "script":
+                scripts.append((dict(attrs), ""))
+                self.inside = True
+
+        def handle_endtag(self, tag):
+            self.inside = self.inside and tag != "script"
+
+        def handle_data(self, data):
+            if self.inside:
+                scripts[-1] = (scripts[-1][0], scripts[-1][1] + data)
+
+    Scripts().feed(html)
+    assert [(a.get("src"), body) for a, body in scripts] == [("viewer/viewer.js", "")]  # a file, nothing inline
+    assert (hostile_report / "viewer" / "viewer.js").is_file()
+    assert hostile.csp_problems(csp) == []
+    for bad in ("script-src 'self' 'unsafe-eval'", "script-src 'self' 'unsafe-inline'", "script-src *",
+                "script-src 'sha256-abc'", "script-src https://cdn.example"):  # controls
+        assert hostile.csp_problems(csp.replace("script-src 'self' file:", bad)), bad
 
 
 def test_legacy_html_sections_are_shown_as_text(hostile_report):
