@@ -100,6 +100,7 @@ def driven(report, request, tmp_path_factory) -> dict:
     done = subprocess.run(["node", str(DRIVER), str(path)], capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     result = json.loads(done.stdout)
+    (shots / "driver.json").write_text(json.dumps(result, indent=1))
     print(f"{request.param}: open {result['timings']['open_ms']:.0f} ms, show a row "
           f"{result['timings']['show_row_ms']:.0f} ms; screenshots in {shots}")
     return result
