@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from experiments.measure import engine_image
+from experiments.measure import comparison, engine_image
 from experiments.measure.results import ResultRow
 from experiments.publish import images
 from experiments.runs.gate import Planned, scene_key, thresholds_for
@@ -153,7 +153,13 @@ def image_row(out_dir: Path, entry: Entry, scene, image: engine_image.EngineImag
     m = c.metrics
     rid = image_row_id(scene, image.path, image.encoding, image.tonemap, image.exposure, entry.label)
     ref_id = content_id(scene, reference_only=True)
-    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / f"image-{rid}" / "engine", c.measured, c.test)
+    # a linear image is radiance like iblcheck's own: the viewer shows it beside the references, under the
+    # scene's tone mapping; a tone-mapped sRGB image has no radiance to show that way (its maps only)
+    linear = not image.display_space
+    pics = images.save_comparison(out_dir, out_dir / "images" / ref_id / f"image-{rid}" / "engine", c.measured, c.test,
+                                  c.reference if linear else None,
+                                  comparison.second_reference(c.reference, scene) if linear else None,
+                                  images.display_tonemap(scene) if linear else None)
     extra = {"image": {"path": str(image.path), "sha256": file_digest(str(image.path)), "label": entry.label,
                        "encoding": image.encoding, "tonemap": image.tonemap, "exposure": image.exposure,
                        **({"note": engine_image.DISPLAY_ONLY} if image.display_space else {})}}
