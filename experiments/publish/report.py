@@ -16,8 +16,9 @@ loaded when a row is opened (experiments/publish/viewer_data.py).
 Escaping: every value reaches the page through the template with autoescape on; a
 section is data (`Section.blocks`: tables, paragraphs, lists, figures), never HTML. Image sources
 are local paths or inline PNGs only. The page holds no inline script: its scripts are files in the
-report folder, and the Content-Security-Policy (`CSP`) lets only those run (no inline script, no
-eval) and nothing load from the network, so a hostile name shows as text and runs nothing. The data
+report folder, and the Content-Security-Policy (`CSP`) lets only scripts of the page's origin (over
+HTTP) or file: URLs (from disk, where a policy cannot name one folder) run (no inline script, no eval)
+and nothing load from the network, so a hostile name shows as text and runs nothing. The data
 files are JSON with every non-ASCII character escaped (viewer_data.statement).
 """
 

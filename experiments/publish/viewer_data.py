@@ -5,8 +5,8 @@
 
 A page opened from disk (file://) cannot fetch() files beside it, but it can load a script. So each
 data file is exactly one statement, `window.iblcheckViewer.add(JSON);`, that viewer/viewer.js loads by
-inserting a `<script src>` when a row is opened (the Content-Security-Policy allows the report's own
-files and nothing else). JSON is `json.dumps(..., ensure_ascii=True)`: every character outside ASCII
+inserting a `<script src>` when a row is opened (the Content-Security-Policy allows scripts from the
+report's origin over HTTP and from file: URLs on disk; the page names only files inside the report folder). JSON is `json.dumps(..., ensure_ascii=True)`: every character outside ASCII
 (U+2028 and U+2029 included) is a \\u escape, and `<`, `>`, `&` are escaped as well, so no name in it
 can end the string, the statement or a `<script>` element.
 
@@ -22,7 +22,8 @@ the mask is u8 0/1.
 
 A row file: {"id", "label", "width", "height", "tonemap": {"key", "white", "exposure", "adapt_lum"} or
 null, "psnr", "reference": REFID or null, "images": {"test", "error", "flip", "mask"}} (images a row
-did not keep are left out). A reference file: {"id": "ref-REFID", "width", "height", "images":
+did not keep are left out), and "display": "srgb" for a tone-mapped PNG/JPEG engine image, whose "test"
+holds display values (sRGB-decoded code values), not radiance. A reference file: {"id": "ref-REFID", "width", "height", "images":
 {"reference", "reference2"}}.
 
 Rebuilding a report rewrites only what changed: each file's content key (a hash of the format version,
@@ -207,6 +208,8 @@ def _write_row(out_dir: Path, folder: Path, row: ResultRow, label: str, index: _
         pictures["flip"] = encode(kept.flip, "f16")
     pictures["mask"] = encode(kept.mask, "u8")
     payload = {**fields, "tonemap": kept.tonemap, "images": pictures}
+    if kept.test.meta.get("encoding") == "srgb":  # a tone-mapped PNG/JPEG engine image: display values, no radiance
+        payload["display"] = "srgb"
     write_text(folder / name, statement(payload))
     done.rows[row.id], done.written = f"{VIEWER}/{name}", done.written + 1
     return None
