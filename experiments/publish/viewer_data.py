@@ -1,12 +1,14 @@
 """The report viewer's data: one small JavaScript file per row and per reference, loaded on demand.
 
     write(out_dir, rows, labels) -> {row id: "viewer/rows/RID.js"}   # the rows that have data
-    copy_assets(out_dir)                                              # experiments/publish/viewer/* -> DIR/viewer/
+    copy_assets(out_dir)                                              # experiments/publish/viewer/* ->
+DIR/viewer/
 
 A page opened from disk (file://) cannot fetch() files beside it, but it can load a script. So each
 data file is exactly one statement, `window.iblcheckViewer.add(JSON);`, that viewer/viewer.js loads by
 inserting a `<script src>` when a row is opened (the Content-Security-Policy allows scripts from the
-report's origin over HTTP and from file: URLs on disk; the page names only files inside the report folder). JSON is `json.dumps(..., ensure_ascii=True)`: every character outside ASCII
+report's origin over HTTP and from file: URLs on disk; the page names only files inside the report folder).
+JSON is `json.dumps(..., ensure_ascii=True)`: every character outside ASCII
 (U+2028 and U+2029 included) is a \\u escape, and `<`, `>`, `&` are escaped as well, so no name in it
 can end the string, the statement or a `<script>` element.
 
@@ -23,7 +25,8 @@ the mask is u8 0/1.
 A row file: {"id", "label", "width", "height", "tonemap": {"key", "white", "exposure", "adapt_lum"} or
 null, "psnr", "reference": REFID or null, "images": {"test", "error", "flip", "mask"}} (images a row
 did not keep are left out), and "display": "srgb" for a tone-mapped PNG/JPEG engine image, whose "test"
-holds display values (sRGB-decoded code values), not radiance. A reference file: {"id": "ref-REFID", "width", "height", "images":
+holds display values (sRGB-decoded code values), not radiance. A reference file: {"id": "ref-REFID", "width",
+"height", "images":
 {"reference", "reference2"}}.
 
 Rebuilding a report rewrites only what changed: each file's content key (a hash of the format version,
