@@ -1,8 +1,7 @@
 """The report viewer's data: one small JavaScript file per row and per reference, loaded on demand.
 
     write(out_dir, rows, labels) -> {row id: "viewer/rows/RID.js"}   # the rows that have data
-    copy_assets(out_dir)                                              # experiments/publish/viewer/* ->
-DIR/viewer/
+    copy_assets(out_dir)                              # experiments/publish/viewer/* -> DIR/viewer/
 
 A page opened from disk (file://) cannot fetch() files beside it, but it can load a script. So each
 data file is exactly one statement, `window.iblcheckViewer.add(JSON);`, that viewer/viewer.js loads by
