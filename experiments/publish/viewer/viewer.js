@@ -354,6 +354,8 @@
     const selA = el("select", { id: "source-a", "aria-label": "image A" });
     const selB = el("select", { id: "source-b", "aria-label": "image B" });
     for (const sel of [selA, selB]) for (const [v, text] of SOURCES) sel.append(el("option", { value: v, text }));
+    selA.value = state.a; // the selects start at what is shown, not at their first option
+    selB.value = state.b;
     selA.addEventListener("change", () => { state.a = selA.value; draw(); });
     selB.addEventListener("change", () => { state.b = selB.value; draw(); });
     const compare = el("select", { id: "compare", "aria-label": "compare with row" }, el("option", { value: "", text: "no second row" }));
