@@ -5,9 +5,15 @@
 // CONFIG: {"report": DIR, "http": bool (serve DIR from a static server on 127.0.0.1, else open file://),
 //          "out": DIR (screenshots), "row": RID, "second": RID, "nodata": RID | null, "width": W, "height": H,
 //          "pixels": [[x, y], ...], "exposure": stops, "filter_scene": NAME, "sort_header": TEXT}
+//   or, for a small hand-written report (test_report_viewer_browser.py `synthetic`):
+//         {"synthetic": true, "report": DIR, "http": true, "out": DIR, "delay": {"/viewer/rows/RID.js": ms},
+//          "first": RID, "other_size": RID, "slow": RID, "fast": RID, "noref": RID, "display": RID,
+//          "many": [RID, ...], "pixel": [x, y]}
 // Everything the page does is through its UI: clicks, keys, mouse drags and wheel, as a user would; the
 // pixel under the cursor is found from the geometry of a fitted, centred image, not from the viewer's state.
-// Exit 0 with the JSON; 3 and one `error:` line when Chromium or puppeteer-core is missing; 2 on a failure.
+// Every request the page makes is listed in the result (`requests`, paths relative to the report).
+// Exit 0 with the JSON; 3 and one `error:` line when Chromium or puppeteer-core is missing or Chromium
+// does not start; 2 on a failure.
 import { accessSync, constants, existsSync, readFileSync } from "node:fs";
 import { readFile } from "node:fs/promises";
 import { createServer } from "node:http";
@@ -34,10 +40,11 @@ function chromium() {
 const TYPES = { ".html": "text/html; charset=utf-8", ".js": "text/javascript", ".css": "text/css", ".png": "image/png" };
 
 /** A read-only static server of `root` on a free port of 127.0.0.1. */
-function serve(root) {
+function serve(root, delay = {}) {
   root = resolve(root);
   const server = createServer(async (req, res) => {
     const rel = decodeURIComponent(new URL(req.url, "http://127.0.0.1").pathname);
+    if (delay[rel]) await sleep(delay[rel]); // a slow file, to race two requests
     const file = resolve(root, "." + sep + rel);
     try {
       if (req.method !== "GET" || !(file === root || file.startsWith(root + sep))) throw new Error("not served");
@@ -65,7 +72,7 @@ async function main() {
   let server = null;
   let url = pathToFileURL(join(resolve(cfg.report), "index.html")).href;
   if (cfg.http) {
-    const s = await serve(cfg.report);
+    const s = await serve(cfg.report, cfg.delay);
     server = s.server;
     url = `${s.url}/index.html`;
   }
@@ -84,6 +91,11 @@ async function main() {
     await page.setViewport({ width: 1400, height: 1000, deviceScaleFactor: 1 });
     page.on("console", (m) => result.console.push({ type: m.type(), text: m.text() }));
     page.on("pageerror", (e) => result.console.push({ type: "pageerror", text: String(e.message) }));
+    result.requests = [];
+    page.on("request", (r) => {
+      const u = r.url(), base = url.slice(0, url.lastIndexOf("/") + 1);
+      result.requests.push(u.startsWith(base) ? u.slice(base.length) : u);
+    });
     page.on("requestfailed", (r) => result.failed.push(`${r.url()}: ${r.failure()?.errorText}`));
     result.bad_responses = [];
     page.on("response", (r) => { if (r.status() >= 400) result.bad_responses.push(`${r.status()} ${r.url()}`); });
@@ -94,6 +106,12 @@ async function main() {
       });
     });
 
+    if (cfg.synthetic) {
+      await synthetic(page, cfg, result);
+      result.violations = await page.evaluate(() => window.__violations);
+      process.stdout.write(JSON.stringify(result) + "\n");
+      return;
+    }
     // open the page
     let t0 = performance.now();
     await page.goto(url, { waitUntil: "load" });
@@ -235,6 +253,24 @@ async function main() {
       await shoot("compare", "#viewer-panes");
     }
 
+    // switch rows: open the second row in the main view; the inspector then reads its values
+    if (cfg.second) {
+      await page.click(`#rows tr[data-row="${cfg.second}"] td`);
+      await page.waitForFunction((id) => document.getElementById("viewer").dataset.open === id, { timeout: 30000 }, cfg.second);
+      ga = await geometry("#canvas-a");
+      await page.mouse.move(...where(ga, px, py));
+      result.switched = await readInspector();
+      await page.mouse.move(0, 0);
+      await shoot("switched_test", "#canvas-a");
+      // the second seed, the error map and the FLIP map, each once as A
+      for (const name of ["reference2", "error", "flip"]) {
+        await page.select("#source-a", name);
+        await page.mouse.move(0, 0);
+        await shoot(`source_${name}`, "#canvas-a");
+      }
+      await page.select("#source-a", "test");
+    }
+
     result.violations = await page.evaluate(() => window.__violations);
     result.console_before_control = result.console.length;
     // control: an inline script inserted now must be refused by the page's CSP and reported as a violation
@@ -251,6 +287,81 @@ async function main() {
     if (server) server.close();
   }
   process.stdout.write(JSON.stringify(result) + "\n");
+}
+
+/** The hand-written report: the cases of the viewer's data handling, through the UI. */
+async function synthetic(page, cfg, result) {
+  const opened = (id) => page.waitForFunction((i) => document.getElementById("viewer").dataset.open === i, { timeout: 30000 }, id);
+  const click = async (id, ctrl = false) => {
+    if (ctrl) await page.keyboard.down("Control");
+    await page.click(`#rows tr[data-row="${id}"] td`);
+    if (ctrl) await page.keyboard.up("Control");
+  };
+  const message = () => page.$eval("#viewer-message", (e) => e.textContent);
+  const shown = () => page.$eval("#viewer-panes", (e) => e.dataset.shown);
+  // the pixel's centre in the fitted, centred image of a canvas cw x ch showing a square image of `n` pixels
+  const inspectAt = async (n) => {
+    const g = await page.$eval("#canvas-a", (c) => { const r = c.getBoundingClientRect(); return { left: r.left + c.clientLeft, top: r.top + c.clientTop, cw: c.width, ch: c.height }; });
+    const s = Math.min(g.cw, g.ch) / n;
+    const [x, y] = cfg.pixel;
+    await page.mouse.move(g.left + (g.cw - s * n) / 2 + (x + 0.5) * s, g.top + (g.ch - s * n) / 2 + (y + 0.5) * s);
+    const r = await page.$eval("#inspector", (e) => ({ ...e.dataset, text: e.textContent }));
+    await page.mouse.move(0, 0);
+    return r;
+  };
+  await page.goto(result.url, { waitUntil: "load" });
+  await page.waitForFunction(() => document.documentElement.dataset.viewerReady === "true", { timeout: 30000 });
+
+  // a row whose reference file also holds a "test" and an "error": only its reference images count
+  await click(cfg.first);
+  await opened(cfg.first);
+  result.first = { inspector: await inspectAt(cfg.size), message: await message(),
+    compare_options: await page.$$eval("#compare option", (os) => os.map((o) => o.value).filter(Boolean)) };
+
+  // a second row of another size: refused, in one line
+  await click(cfg.other_size, true);
+  await page.waitForFunction(() => document.getElementById("viewer-message").textContent.length > 0, { timeout: 30000 });
+  result.other_size = { message: await message(), compare: await page.$eval("#compare", (e) => e.value),
+    b: await page.$eval("#source-b", (e) => e.value) };
+
+  // two picks of the compared row, the first one slow: the latest pick stays
+  await page.select("#compare", cfg.slow);
+  await page.select("#compare", cfg.fast);
+  await sleep(Math.max(...Object.values(cfg.delay)) + 1000);
+  result.race = { compare: await page.$eval("#compare", (e) => e.value), inspector: await inspectAt(cfg.size) };
+
+  // the f key while a select has the focus: nothing; then, with the focus elsewhere, it flips
+  await page.focus("#compare");
+  const before = await shown();
+  await page.keyboard.press("f");
+  const inSelect = await shown();
+  await page.evaluate(() => document.activeElement.blur());
+  await page.keyboard.press("f");
+  result.f_key = { before, in_select: inSelect, outside: await shown() };
+  await page.click("#mode-side");
+
+  // a row whose reference file is missing: opened without it, and said
+  await click(cfg.noref);
+  await opened(cfg.noref);
+  await page.select("#source-b", "reference");
+  result.noref = { message: await message(), inspector: await inspectAt(cfg.size) };
+
+  // a row of display values (an engine's tone-mapped image): sRGB only, no exposure
+  await click(cfg.display);
+  await opened(cfg.display);
+  result.display = { inspector: await inspectAt(cfg.size), exposure_disabled: await page.$eval("#exposure", (e) => e.disabled),
+    range_disabled: await page.$eval("#exposure-range", (e) => e.disabled),
+    geometry: await page.$eval("#canvas-a", (c) => ({ cw: c.width, ch: c.height })) };
+  result.screenshots.display = join(cfg.out, "display.png");
+  await (await page.$("#canvas-a")).screenshot({ path: result.screenshots.display });
+
+  // many rows, each with its own reference: what the viewer holds stays bounded
+  for (const id of cfg.many) {
+    await click(id);
+    await opened(id);
+  }
+  result.held = await page.evaluate(() => window.iblcheckViewer.held());
+  result.many_message = await message();
 }
 
 main().then(

@@ -16,22 +16,40 @@ drags and wheel) and returns what the page showed; every expectation is computed
   the swipe divider dragged to 30 % is a column of its colour at 30 % of the canvas (control: none in the
   flip screenshot); screenshots are not blank (control: a uniform picture is);
 - the scene filter hides exactly the other scene's rows; a header click sorts by PSNR (results.jsonl);
-  ctrl-click compares two rows (B = the second row's test radiance); a row without data says why.
+  ctrl-click compares two rows (B = the second row's test radiance); a row without data says why;
+- only the opened rows' data files (and their references) are requested, each once (control: the report
+  holds a data file for a row that was not opened); opening the second row in the main view makes the
+  inspector read its measured.npz (control: the first row's value is rejected); the second seed, the error
+  map and the FLIP map are each drawn (not blank, unlike the test image);
+- the fitted 32 x 32 image on the 448-pixel canvas (a zoom by 14) is made of uniform 14 x 14 blocks
+  (nearest neighbour; control: the same grid shifted by 7 pixels is not); the swipe picture equals the
+  flip A picture left of the divider and the flip B picture right of it (its 12-pixel handle left out);
+- the driver's exit 3 (Chromium there but not starting) skips with the driver's line (control: exit 2 fails).
+A small hand-written report (`synthetic`, arrays written here with numpy + zlib + base64, served over HTTP
+with one file delayed) covers the data handling: a reference file's "test" never replaces the row's; a
+second row of another size is refused in one line; the compare list puts the open row's scene first; of
+two picks of the compared row the latest wins though the first arrives later; `f` does nothing while a
+select has the focus (control: it flips outside one); a missing reference file opens the row without it and
+says so; a row of display values ("display": "srgb") is drawn as round(255 srgb(clip(x))) with the exposure
+control disabled and its values labelled display (control: its Reinhard picture is rejected); after ten
+rows with ten references the viewer holds at most 8 of each and no pending data file object.
 """
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import shutil
 import subprocess
 import sys
+import zlib
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from scenes.model.tonemap import to_uint8, tonemap
+from scenes.model.tonemap import srgb_encode, to_uint8, tonemap
 
 REPO = Path(__file__).resolve().parents[2]
 DRIVER = REPO / "tests" / "experiments" / "report_driver.mjs"
@@ -87,6 +105,16 @@ def report(tmp_path_factory) -> dict:
     return {"dir": out, "rows": rows, "row": phong[0], "second": phong[1], "nodata": diffuse[1]}
 
 
+def run_driver(path: Path, env: dict | None = None) -> dict:
+    """The driver's JSON for the config at `path`; its exit 3 (no usable Chromium or packages) skips."""
+    done = subprocess.run(["node", str(DRIVER), str(path)], capture_output=True, text=True, timeout=300,
+                          env={**os.environ, **(env or {})})
+    if done.returncode == 3:
+        pytest.skip(done.stderr.strip().splitlines()[-1] if done.stderr.strip() else "driver exit 3")
+    assert done.returncode == 0, done.stderr
+    return json.loads(done.stdout)
+
+
 @pytest.fixture(scope="module", params=["file", "http"])
 def driven(report, request, tmp_path_factory) -> dict:
     """What the driver saw, the page opened from disk or from a static server on 127.0.0.1."""
@@ -97,9 +125,7 @@ def driven(report, request, tmp_path_factory) -> dict:
            "sort_header": "PSNR dB"}
     path = shots / "config.json"
     path.write_text(json.dumps(cfg))
-    done = subprocess.run(["node", str(DRIVER), str(path)], capture_output=True, text=True, timeout=300)
-    assert done.returncode == 0, done.stderr
-    result = json.loads(done.stdout)
+    result = run_driver(path)
     (shots / "driver.json").write_text(json.dumps(result, indent=1))
     print(f"{request.param}: open {result['timings']['open_ms']:.0f} ms, show a row "
           f"{result['timings']['show_row_ms']:.0f} ms; screenshots in {shots}")
@@ -283,3 +309,229 @@ def test_a_row_without_data_says_why(driven, report):
 def test_page_opens_and_shows_a_row_quickly(driven):
     assert driven["timings"]["open_ms"] < 5000
     assert driven["timings"]["show_row_ms"] < 5000
+
+
+def _data_file(path: Path) -> dict:
+    """The object a viewer data file passes to window.iblcheckViewer.add(...)."""
+    text = path.read_text().strip()
+    head = "window.iblcheckViewer.add("
+    assert text.startswith(head) and text.endswith(");"), path
+    return json.loads(text[len(head):-2])
+
+
+def test_only_the_opened_rows_data_is_requested(driven, report):
+    viewer = report["dir"] / "viewer"
+    opened = [report["row"]["id"], report["second"]["id"]]
+    rows = sorted(r for r in driven["requests"] if r.startswith("viewer/rows/"))
+    refs = sorted(r for r in driven["requests"] if r.startswith("viewer/refs/"))
+    assert rows == sorted(f"viewer/rows/{rid}.js" for rid in opened)
+    wanted = {f"viewer/refs/{_data_file(viewer / 'rows' / f'{rid}.js')['reference']}.js" for rid in opened}
+    assert sorted(refs) == sorted(wanted)  # each once: a reference shared by both rows is loaded one time
+    # control: the report has a data file for a row that was not opened, so loading all of them would show
+    others = [p.name for p in (viewer / "rows").glob("*.js") if p.stem not in opened]
+    assert others
+
+
+def test_opening_another_row_switches_the_inspector(driven, report):
+    x, y = PIXELS[0]
+    second, first = arrays(report, report["second"]), arrays(report, report["row"])
+    shown = driven["switched"]
+    assert shown_matches(shown["a"], second["rgb"][y, x]), shown["text"]
+    assert shown_matches(shown["b"], second["reference"][y, x]), shown["text"]
+    assert not shown_matches(shown["a"], first["rgb"][y, x] * 1.01)  # control: a wrong value is rejected
+
+
+@pytest.mark.parametrize("name", ["reference2", "error", "flip"])
+def test_second_seed_and_maps_are_drawn(driven, name):
+    img, test = picture(driven["screenshots"][f"source_{name}"]), picture(driven["screenshots"]["switched_test"])
+    inside = img[1:-1, 1:-1]  # the canvas without its 1-pixel border, which alone would not look blank
+    assert not_blank(inside)
+    assert img.shape == test.shape and np.abs(img - test).mean() > 1.0
+    assert not not_blank(np.full_like(inside, 30))  # control: the empty canvas's background is blank
+
+
+def blocks_uniform(img: np.ndarray, start: int, s: int, n: int) -> bool:
+    """Is img[start + s i : start + s (i + 1), start + s j : ...] one colour for every i, j < n?"""
+    tiles = img[start:start + s * n, start:start + s * n].reshape(n, s, n, s, 3)
+    return bool(np.all(tiles.max(axis=(1, 3)) == tiles.min(axis=(1, 3))))
+
+
+def test_zoom_is_nearest_neighbour(driven):
+    g = driven["canvas_geometry"]
+    assert (g["cw"], g["ch"]) == (448, 448)  # a 32-pixel image fitted at 14 screen pixels per image pixel
+    img = picture(driven["screenshots"]["side_canvas_a"])
+    border = (img.shape[1] - g["cw"]) // 2
+    assert blocks_uniform(img, border, 14, SIZE)
+    # control: the same picture cut into a grid shifted by half a block straddles the pixels' edges
+    assert not blocks_uniform(img, border + 7, 14, SIZE - 1)
+
+
+def test_swipe_shows_a_left_and_b_right_of_the_divider(driven):
+    g = driven["canvas_geometry"]
+    a, b = picture(driven["screenshots"]["flip_a"]), picture(driven["screenshots"]["flip_b"])
+    swipe = picture(driven["screenshots"]["swipe"])
+    border = (swipe.shape[1] - g["cw"]) // 2
+    x = border + round(driven["divider"] * g["cw"])
+    left, right = slice(0, x - 6), slice(x + 6, None)  # the divider's 12-pixel handle left out
+    assert np.array_equal(swipe[:, left], a[:, left])
+    assert np.array_equal(swipe[:, right], b[:, right])
+    # control: A and B differ on both sides, so the other picture would be rejected
+    assert not np.array_equal(a[:, left], b[:, left]) and not np.array_equal(a[:, right], b[:, right])
+
+
+def test_driver_exit_3_skips_the_test(tmp_path):
+    cfg = tmp_path / "config.json"
+    cfg.write_text(json.dumps({"report": str(tmp_path), "http": False, "out": str(tmp_path)}))
+    with pytest.raises(pytest.skip.Exception) as skipped:
+        run_driver(cfg, env={"IBLCHECK_CHROMIUM": "/bin/false"})  # executable, but not a browser
+    assert "did not start headless" in str(skipped.value) and "\n" not in str(skipped.value)
+    with pytest.raises(AssertionError):  # control: any other failure (exit 2: no config) fails
+        run_driver(tmp_path / "missing.json")
+
+
+# --------------------------------------------------------------------------- a hand-written report
+
+SYN = 8  # the synthetic images' size
+SYN_PIXEL = (2, 5)  # (x, y)
+CSP = ("default-src 'none'; script-src 'self' file:; style-src 'self' 'unsafe-inline' file:; "
+       "img-src 'self' data: file:; base-uri 'none'; form-action 'none'")
+TONEMAP = {"key": 0.18, "white": 4.0, "exposure": 0.0, "adapt_lum": 0.2}
+
+
+def _img(values: np.ndarray) -> dict:
+    """The viewer's image format, written here independently: zlib of little-endian float16, base64."""
+    raw = np.ascontiguousarray(values, dtype="<f2").tobytes()
+    return {"channels": values.shape[-1], "dtype": "f16", "codec": "deflate",
+            "data": base64.b64encode(zlib.compress(raw)).decode("ascii")}
+
+
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory) -> dict:
+    """A report of hand-made rows (see the module docstring) and what the driver saw of it over HTTP."""
+    out = tmp_path_factory.mktemp("synthetic")
+    viewer = out / "viewer"
+    (viewer / "rows").mkdir(parents=True)
+    (viewer / "refs").mkdir()
+    for name in ("viewer.js", "viewer.css"):
+        shutil.copy(REPO / "experiments" / "publish" / "viewer" / name, viewer / name)
+    rng = np.random.default_rng(7)
+    images: dict[str, np.ndarray] = {}
+
+    def write(folder: str, obj: dict) -> None:
+        text = "window.iblcheckViewer.add(" + json.dumps(obj, ensure_ascii=True) + ");"
+        (viewer / folder / f"{obj['id'].removeprefix('ref-')}.js").write_text(text)
+
+    def ref(rid: str, decoy: bool = False) -> None:
+        images[f"ref-{rid}"] = rng.uniform(0.0, 2.0, (SYN, SYN, 3)).astype(np.float32)
+        imgs = {"reference": _img(images[f"ref-{rid}"])}
+        if decoy:  # what a reference file may not contribute
+            images[f"decoy-{rid}"] = rng.uniform(5.0, 9.0, (SYN, SYN, 3)).astype(np.float32)
+            imgs |= {"test": _img(images[f"decoy-{rid}"]), "error": _img(np.ones((SYN, SYN, 1)))}
+        write("refs", {"id": f"ref-{rid}", "width": SYN, "height": SYN, "images": imgs})
+
+    table = []
+
+    def row(rid: str, scene: str, ref_id: str, w: int = SYN, h: int = SYN, **extra) -> None:
+        lo, hi = (-0.1, 1.3) if extra.get("display") else (0.0, 3.0)
+        images[rid] = rng.uniform(lo, hi, (h, w, 3)).astype(np.float32)
+        write("rows", {"id": rid, "label": rid, "width": w, "height": h, "tonemap": TONEMAP, "psnr": None,
+                       "reference": ref_id, "images": {"test": _img(images[rid])}, **extra})
+        table.append(f'<tr data-row="{rid}" data-scene="{scene}" data-technique="t" data-effects="diffuse" '
+                     f'data-data="viewer/rows/{rid}.js"><td>{scene}</td><td>t</td><td>{rid}</td></tr>')
+
+    ref("ra", decoy=True)
+    row("beta-small", "beta", "ra", w=6)
+    for rid in ("a-first", "a-slow", "a-fast"):
+        row(rid, "alpha", "ra")
+    row("a-noref", "alpha", "gone")
+    row("a-display", "alpha", "ra", display="srgb")
+    many = [f"m{i}" for i in range(10)]
+    for i, rid in enumerate(many):
+        ref(f"rm{i}")
+        row(rid, "many", f"rm{i}")
+    (out / "index.html").write_text(
+        f'<!doctype html><html><head><meta charset="utf-8"><meta http-equiv="Content-Security-Policy" '
+        f'content="{CSP}"><link rel="stylesheet" href="viewer/viewer.css"><title>synthetic</title></head><body>'
+        f'<table id="rows" class="sortable"><thead><tr><th>scene</th><th>technique</th><th>row</th></tr></thead>'
+        f'<tbody>{"".join(table)}</tbody></table><div id="viewer" data-rows="{len(table)}"></div>'
+        f'<script src="viewer/viewer.js"></script></body></html>')
+    cfg = {"synthetic": True, "report": str(out), "http": True, "out": str(out),
+           "delay": {"/viewer/rows/a-slow.js": 1500}, "first": "a-first", "other_size": "beta-small",
+           "slow": "a-slow", "fast": "a-fast", "noref": "a-noref", "display": "a-display", "many": many,
+           "pixel": list(SYN_PIXEL), "size": SYN}
+    (out / "config.json").write_text(json.dumps(cfg))
+    result = run_driver(out / "config.json")
+    (out / "driver.json").write_text(json.dumps(result, indent=1))
+    return {"result": result, "images": images, "many": many}
+
+
+def test_synthetic_page_has_no_errors(synthetic):
+    r = synthetic["result"]
+    assert [m for m in r["console"] if m["type"] == "pageerror"] == []
+    assert r["violations"] == []
+
+
+def test_a_reference_file_contributes_only_reference_images(synthetic):
+    x, y = SYN_PIXEL
+    im, shown = synthetic["images"], synthetic["result"]["first"]["inspector"]
+    assert shown_matches(shown["a"], im["a-first"][y, x]), shown["text"]
+    assert not shown_matches(shown["a"], im["decoy-ra"][y, x])  # control: the decoy's value is rejected
+    assert shown_matches(shown["b"], im["ref-ra"][y, x]), shown["text"]
+
+
+def test_compare_list_puts_the_open_rows_scene_first(synthetic):
+    options = synthetic["result"]["first"]["compare_options"]
+    same = ["a-slow", "a-fast", "a-noref", "a-display"]
+    assert options == same + ["beta-small"] + synthetic["many"]
+    # control: the table's own order (beta-small first) is not it
+    assert options != ["beta-small"] + same + synthetic["many"]
+
+
+def test_a_second_row_of_another_size_is_refused(synthetic):
+    got = synthetic["result"]["other_size"]
+    assert "6 x 8" in got["message"] and "8 x 8" in got["message"] and "\n" not in got["message"]
+    assert (got["compare"], got["b"]) == ("", "reference")
+
+
+def test_the_latest_compare_pick_wins(synthetic):
+    x, y = SYN_PIXEL
+    race, im = synthetic["result"]["race"], synthetic["images"]
+    assert race["compare"] == "a-fast"
+    assert shown_matches(race["inspector"]["b"], im["a-fast"][y, x]), race["inspector"]["text"]
+    assert not shown_matches(race["inspector"]["b"], im["a-slow"][y, x])  # control
+
+
+def test_f_key_is_ignored_in_a_select(synthetic):
+    f = synthetic["result"]["f_key"]
+    assert (f["before"], f["in_select"]) == ("AB", "AB")
+    assert f["outside"] == "B"  # control: the same key outside a select flips
+
+
+def test_a_missing_reference_opens_the_row_and_says_so(synthetic):
+    x, y = SYN_PIXEL
+    got = synthetic["result"]["noref"]
+    assert "reference gone not shown" in got["message"] and "\n" not in got["message"]
+    assert shown_matches(got["inspector"]["a"], synthetic["images"]["a-noref"][y, x])
+    assert got["inspector"]["b"] == "-"
+
+
+def test_display_rows_are_srgb_encoded_only(synthetic):
+    got = synthetic["result"]["display"]
+    assert got["exposure_disabled"] and got["range_disabled"]
+    assert (got["inspector"]["kindA"], got["inspector"]["kindB"]) == ("display", "linear")
+    assert "display" in got["inspector"]["text"]
+    half = synthetic["images"]["a-display"].astype(np.float16).astype(np.float64)
+    img = picture(synthetic["result"]["screenshots"]["display"])
+    border = (img.shape[1] - got["geometry"]["cw"]) // 2
+    s = got["geometry"]["cw"] // SYN
+    centres = border + (np.arange(SYN) * s + s // 2)
+    shown = img[np.ix_(centres, centres)]
+    assert np.abs(shown - to_uint8(srgb_encode(half)).astype(int)).max() <= 1
+    reinhard = to_uint8(tonemap(half, TONEMAP["key"], TONEMAP["white"], TONEMAP["exposure"], TONEMAP["adapt_lum"]))
+    assert np.abs(shown - reinhard.astype(int)).max() > 8  # control: the radiance display is rejected
+
+
+def test_the_viewer_holds_a_bounded_amount(synthetic):
+    held = synthetic["result"]["held"]
+    assert held == {"pending": 0, "rows": 8, "refs": 8}, held
+    assert synthetic["result"]["many_message"] == ""

@@ -33,35 +33,54 @@
 
   // ------------------------------------------------------------------------------------- data files
 
-  const added = new Map(); // id -> the object a data file passed to add()
-  const waiting = new Map(); // id -> [resolve]
+  // A data file's add() call is matched to the <script> that loads it (document.currentScript, set while
+  // that script runs), so a file answers only its own request: a reference file can never stand for a row,
+  // nor a row for a reference, and rows and references are kept in separate maps. Nothing keeps a data
+  // file's object (its base64 text) once the one waiting request has it: the decoded images are cached
+  // (rows and references each in a bounded LRU) instead.
+  const pending = { row: new Map(), ref: new Map() }; // kind -> id -> {resolve, reject, done}
 
   window.iblcheckViewer = Object.freeze({
     add(obj) {
-      if (!obj || typeof obj !== "object" || typeof obj.id !== "string") return;
-      added.set(obj.id, obj);
-      for (const ok of waiting.get(obj.id) || []) ok(obj);
-      waiting.delete(obj.id);
+      const s = document.currentScript;
+      if (!s || !obj || typeof obj !== "object" || typeof obj.id !== "string") return;
+      const kind = s.dataset.kind, want = s.dataset.id;
+      const job = pending[kind] && pending[kind].get(want);
+      if (!job || obj.id !== want) return;
+      pending[kind].delete(want);
+      job.done = true;
+      job.resolve(obj);
+    },
+    /** How much the viewer holds: data objects not yet handed over, decoded rows and references. */
+    held() {
+      return { pending: pending.row.size + pending.ref.size, rows: decoded.size, refs: decodedRefs.size };
     },
   });
 
-  /** The object data file `src` adds under `id` (the script is inserted once). */
-  function loadData(src, id) {
-    if (added.has(id)) return Promise.resolve(added.get(id));
+  /** The object data file `src` passes to add() under `id` (kind "row" or "ref"), loaded once per call. */
+  function loadData(src, id, kind) {
     if (!SAFE_PATH.test(src)) return Promise.reject(new Error(`refused data file ${src}`));
-    return new Promise((resolve, reject) => {
-      if (!waiting.has(id)) waiting.set(id, []);
-      waiting.get(id).push(resolve);
+    if (pending[kind].has(id)) return pending[kind].get(id).promise;
+    const job = { done: false };
+    job.promise = new Promise((resolve, reject) => {
+      job.resolve = resolve;
       const s = document.createElement("script");
-      s.src = src;
-      s.onload = () => {
+      const fail = (why) => {
         s.remove();
-        if (added.has(id)) resolve(added.get(id));
-        else reject(new Error(`${src} holds no data for ${id}`));
+        if (job.done) return;
+        job.done = true;
+        if (pending[kind].get(id) === job) pending[kind].delete(id);
+        reject(new Error(why));
       };
-      s.onerror = () => { s.remove(); reject(new Error(`could not load ${src}`)); };
+      s.dataset.kind = kind;
+      s.dataset.id = id;
+      s.src = src;
+      s.onload = () => fail(`${src} holds no data for ${id}`); // a no-op when add() already answered
+      s.onerror = () => fail(`could not load ${src}`);
       document.head.appendChild(s);
     });
+    pending[kind].set(id, job);
+    return job.promise;
   }
 
   // IEEE 754 binary16 -> float32, through a table of all 65536 codes (built on first use)
@@ -110,39 +129,62 @@
   }
 
   const decoded = new Map(); // row id -> Promise of a decoded row, most recently used last
+  const decodedRefs = new Map(); // reference id -> Promise of its decoded images, most recently used last
+  const REF_IMAGES = ["reference", "reference2"]; // all a reference file may contribute to a row
 
-  /** A row's images decoded: {id, label, w, h, tonemap, images: {name: image}}. */
-  function openRow(tr) {
-    const id = tr.dataset.row;
-    if (decoded.has(id)) {
-      const p = decoded.get(id);
-      decoded.delete(id);
-      decoded.set(id, p);
+  /** The cached promise under `key` (marked most recently used), else make() cached, within CACHE_ROWS. */
+  function cached(cache, key, make) {
+    if (cache.has(key)) {
+      const p = cache.get(key);
+      cache.delete(key);
+      cache.set(key, p);
       return p;
     }
-    const p = (async () => {
+    const p = make();
+    cache.set(key, p);
+    p.catch(() => { if (cache.get(key) === p) cache.delete(key); });
+    while (cache.size > CACHE_ROWS) cache.delete(cache.keys().next().value);
+    return p;
+  }
+
+  /** A reference's images, decoded: {reference, reference2} (only those names, whatever the file holds). */
+  function openReference(src, refId, w, h) {
+    return cached(decodedRefs, refId, async () => {
+      const ref = await loadData(src, `ref-${refId}`, "ref");
+      if (ref.width !== w || ref.height !== h) throw new Error(`${src}: ${ref.width} x ${ref.height}, not the row's ${w} x ${h}`);
+      const images = {};
+      await Promise.all(REF_IMAGES.filter((k) => ref.images && ref.images[k])
+        .map(async (k) => { images[k] = await decode(ref.images[k], w, h, k); }));
+      return images;
+    });
+  }
+
+  /** A row's images decoded: {id, label, w, h, tonemap, display, images: {name: image}, warning}. A missing
+   * or broken reference leaves the row without its reference images, and `warning` says why. */
+  function openRow(tr) {
+    const id = tr.dataset.row;
+    return cached(decoded, id, async () => {
       const src = tr.dataset.data;
-      const row = await loadData(src, id);
+      let row = await loadData(src, id, "row");
       const w = row.width, h = row.height;
       if (!Number.isInteger(w) || !Number.isInteger(h) || w < 1 || h < 1) throw new Error(`${src}: no image size`);
       const images = {};
-      const jobs = Object.entries(row.images || {}).map(async ([k, v]) => { images[k] = await decode(v, w, h, k); });
-      if (row.reference && SAFE_ID.test(row.reference)) {
-        const refSrc = /rows\/[^/]*$/.test(src) ? src.replace(/rows\/[^/]*$/, `refs/${row.reference}.js`)
-          : `viewer/refs/${row.reference}.js`;
-        const ref = await loadData(refSrc, `ref-${row.reference}`);
-        for (const [k, v] of Object.entries(ref.images || {})) {
-          if (ref.width !== w || ref.height !== h) throw new Error(`${refSrc}: ${ref.width} x ${ref.height}, not the row's ${w} x ${h}`);
-          jobs.push(decode(v, w, h, k).then((im) => { images[k] = im; }));
-        }
-      }
+      const jobs = Object.entries(row.images || {}).filter(([k]) => !REF_IMAGES.includes(k))
+        .map(async ([k, v]) => { images[k] = await decode(v, w, h, k); });
+      const info = { id, label: row.label || id, w, h, tonemap: row.tonemap || null, psnr: row.psnr,
+        display: row.display === "srgb" ? "srgb" : "linear", images, warning: "" };
+      const refId = row.reference;
+      row = null; // the base64 text is not kept past decoding
+      if (refId && SAFE_ID.test(refId)) {
+        const refSrc = /rows\/[^/]*$/.test(src) ? src.replace(/rows\/[^/]*$/, `refs/${refId}.js`) : `viewer/refs/${refId}.js`;
+        jobs.push(openReference(refSrc, refId, w, h).then(
+          (refImages) => { for (const k of REF_IMAGES) if (refImages[k]) images[k] = refImages[k]; },
+          (err) => { info.warning = `reference ${refId} not shown: ${err.message}`; },
+        ));
+      } else if (refId) info.warning = `reference ${refId} not shown: not a plain id`;
       await Promise.all(jobs);
-      return { id, label: row.label || id, w, h, tonemap: row.tonemap || null, psnr: row.psnr, images };
-    })();
-    decoded.set(id, p);
-    p.catch(() => decoded.delete(id));
-    while (decoded.size > CACHE_ROWS) decoded.delete(decoded.keys().next().value);
-    return p;
+      return info;
+    });
   }
 
   // ------------------------------------------------------------------------------------- display
@@ -153,7 +195,12 @@
     if (Number.isNaN(v)) v = 0;
     v = Math.min(Math.max(v, 0), white);
     v = v * (1 + v / (white * white)) / (1 + v);
-    v = Math.min(Math.max(v, 0), 1);
+    return srgbByte(v);
+  }
+
+  /** srgb_encode of a display-linear value clamped to [0, 1], then 8 bits (no tone mapping, no exposure). */
+  function srgbByte(x) {
+    let v = Number.isNaN(x) ? 0 : Math.min(Math.max(x, 0), 1);
     v = v <= 0.0031308 ? 12.92 * v : 1.055 * Math.pow(v, 1 / 2.4) - 0.055;
     return Math.round(v * 255);
   }
@@ -166,9 +213,12 @@
     return stops[i].map((a, k) => Math.round(a + (stops[i + 1][k] - a) * f));
   }
 
+  /** Is this image of `row` display values (a tone-mapped engine image: sRGB-encoded only), not radiance? */
+  const isDisplay = (row, name) => row.display === "srgb" && name === "test";
+
   /** The 8-bit RGBA picture of one image at `stops` (cached on the image while the stops stay). */
   function bitmap(row, name, img, stops) {
-    const key = MAPS[name] ? "map" : `x${stops}`;
+    const key = MAPS[name] ? "map" : isDisplay(row, name) ? "srgb" : `x${stops}`;
     if (img.bitmap && img.bitmapKey === key) return img.bitmap;
     const { w, h, c, data } = img;
     const px = new ImageData(w, h);
@@ -185,6 +235,11 @@
       for (let i = 0; i < w * h; i++) {
         const rgb = mask && !mask.data[i] ? MASKED : colormap(MAPS[name], data[i * c] / top);
         out.set(rgb, 4 * i);
+        out[4 * i + 3] = 255;
+      }
+    } else if (key === "srgb") {
+      for (let i = 0; i < w * h; i++) {
+        for (let k = 0; k < 3; k++) out[4 * i + k] = srgbByte(data[i * c + (c === 3 ? k : 0)]);
         out[4 * i + 3] = 255;
       }
     } else {
@@ -299,20 +354,33 @@
     const selA = el("select", { id: "source-a", "aria-label": "image A" });
     const selB = el("select", { id: "source-b", "aria-label": "image B" });
     for (const sel of [selA, selB]) for (const [v, text] of SOURCES) sel.append(el("option", { value: v, text }));
+    selA.value = state.a; // the selects start at what is shown, not at their first option
+    selB.value = state.b;
     selA.addEventListener("change", () => { state.a = selA.value; draw(); });
     selB.addEventListener("change", () => { state.b = selB.value; draw(); });
     const compare = el("select", { id: "compare", "aria-label": "compare with row" }, el("option", { value: "", text: "no second row" }));
-    for (const r of allRows) {
-      if (!r.dataset.data) continue;
-      const text = Array.from(r.cells).slice(0, 3).map((c) => c.textContent.trim()).join(" / ");
-      compare.append(el("option", { value: r.dataset.row, text }));
+    /** The compare list for the open row `tr`: the other rows of its scene first, then the rest. */
+    function listCompare(tr) {
+      const scene = tr ? tr.dataset.scene : null;
+      const rows = allRows.filter((r) => r.dataset.data && r !== tr);
+      const same = rows.filter((r) => r.dataset.scene === scene), rest = rows.filter((r) => r.dataset.scene !== scene);
+      const option = (r) => el("option", { value: r.dataset.row,
+        text: Array.from(r.cells).slice(0, 3).map((c) => c.textContent.trim()).join(" / ") });
+      const keep = state.other ? state.other.id : "";
+      compare.replaceChildren(el("option", { value: "", text: "no second row" }));
+      if (same.length) compare.append(el("optgroup", { label: "same scene" }, ...same.map(option)));
+      if (rest.length) compare.append(el("optgroup", { label: "other scenes" }, ...rest.map(option)));
+      compare.value = keep;
     }
+    listCompare(null);
     compare.addEventListener("change", () => {
       const tr = allRows.find((r) => r.dataset.row === compare.value);
       setOther(tr || null);
     });
     const range = el("input", { type: "range", id: "exposure-range", min: "-12", max: "12", step: "0.25", value: "0", "aria-label": "exposure (stops)" });
     const number = el("input", { type: "number", id: "exposure", min: "-40", max: "40", step: "0.25", value: "0", "aria-label": "exposure (stops)" });
+    /** The stops in use: none for a row whose test image is display values (its control is disabled). */
+    const stops = () => (state.row && state.row.display === "srgb" ? 0 : state.stops);
     const onExposure = (src) => () => {
       const v = parseFloat(src.value);
       if (!Number.isFinite(v)) return;
@@ -387,7 +455,7 @@
         const v = state.view;
         ctx.imageSmoothingEnabled = false; // nearest neighbour at every zoom
         ctx.setTransform(v.s, 0, 0, v.s, v.tx, v.ty);
-        ctx.drawImage(bitmap(src.row, src.name, src.img, state.stops), 0, 0);
+        ctx.drawImage(bitmap(src.row, src.name, src.img, stops()), 0, 0);
       }
       if (clipFrom !== undefined) ctx.restore();
     }
@@ -453,12 +521,17 @@
         d = Array.from({ length: n }, (_, k) => a[Math.min(k, a.length - 1)] - b[Math.min(k, b.length - 1)]);
       }
       const show = (vals) => (vals ? vals.map(fmt).join(" ") : "-");
+      // display values (a tone-mapped engine image), linear radiance, or a map's value
+      const kind = (src) => (!src ? "" : MAPS[src.name] ? "map" : isDisplay(src.row, src.name) ? "display" : "linear");
+      inspector.dataset.kindA = kind(A);
+      inspector.dataset.kindB = kind(B);
       inspector.dataset.x = String(x);
       inspector.dataset.y = String(y);
       inspector.dataset.a = show(a);
       inspector.dataset.b = show(b);
       inspector.dataset.d = show(d);
-      inspector.textContent = `x ${x}, y ${y} | A (${state.a}): ${show(a)} | B (${state.b}): ${show(b)} | A - B: ${show(d)}`;
+      inspector.textContent = `x ${x}, y ${y} | A (${state.a}, ${kind(A) || "-"}): ${show(a)} | `
+        + `B (${state.b}, ${kind(B) || "-"}): ${show(b)} | A - B: ${show(d)}`;
     }
 
     // pan and zoom, shared by both canvases (synchronised); the cursor feeds the inspector
@@ -521,7 +594,7 @@
     document.addEventListener("keydown", (e) => {
       if (!state.row || e.ctrlKey || e.metaKey || e.altKey) return;
       const t = e.target;
-      if (t && (t.tagName === "INPUT" || t.tagName === "TEXTAREA" || t.isContentEditable)) return;
+      if (t && (["INPUT", "SELECT", "TEXTAREA"].includes(t.tagName) || t.isContentEditable)) return;
       if (e.key === "f" || e.key === "F") { e.preventDefault(); toggleFlip(); }
     });
 
@@ -550,7 +623,16 @@
         if (mine !== ticket) return;
         const resize = !state.row || state.row.w !== row.w || state.row.h !== row.h;
         state.row = row;
-        if (state.other && state.other.id === row.id) state.other = null;
+        if (state.other && (state.other.id === row.id || state.other.w !== row.w || state.other.h !== row.h)) {
+          state.other = null;
+          if (state.b === "other") state.b = selB.value = "reference";
+        }
+        otherTicket++; // a compared row still loading was picked for the previous row
+        listCompare(tr);
+        for (const input of [range, number]) {
+          input.disabled = row.display === "srgb";
+          input.title = input.disabled ? "this row's test image is display values (tone-mapped by its engine): no exposure" : "";
+        }
         if (resize) {
           const side = 448;
           const h = Math.round(Math.min(Math.max(side * row.h / row.w, 160), 640));
@@ -559,7 +641,8 @@
         }
         body.hidden = false;
         title.textContent = `${row.label}${row.psnr != null ? ` — PSNR ${Number(row.psnr).toFixed(2)} dB` : ""}`;
-        say(row.tonemap ? "" : "this row kept no tone mapping: shown with Reinhard key 0.18, adaptation luminance 1");
+        say([row.warning, row.tonemap ? "" : "this row kept no tone mapping: shown with Reinhard key 0.18, adaptation luminance 1"]
+          .filter(Boolean).join("; "));
         mark();
         draw();
         root.dataset.openMs = (performance.now() - t0).toFixed(1);
@@ -571,10 +654,18 @@
       }
     }
 
+    let otherTicket = 0; // the latest pick of a compared row: a slower earlier pick arriving later is dropped
     async function setOther(tr) {
+      const mine = ++otherTicket;
       if (!tr) { state.other = null; compare.value = ""; if (state.b === "other") state.b = selB.value = "reference"; mark(); draw(); return; }
       try {
         const row = await load(tr);
+        if (mine !== otherTicket) return;
+        if (row.w !== state.row.w || row.h !== state.row.h) {
+          compare.value = state.other ? state.other.id : "";
+          say(`${row.id} is ${row.w} x ${row.h}, the open row ${state.row.w} x ${state.row.h}: only rows of one size can be compared`);
+          return;
+        }
         state.other = row;
         compare.value = row.id;
         state.a = selA.value = "test";
@@ -583,6 +674,8 @@
         mark();
         draw();
       } catch (err) {
+        if (mine !== otherTicket) return;
+        compare.value = state.other ? state.other.id : "";
         say(`${tr.dataset.row}: ${err.message}`);
       }
     }
