@@ -185,7 +185,8 @@ def _check(found: diagnosis.Diagnosis, planted: tuple[str, ...], pair: str):
 
 CASES = [(n,) for n in hypotheses.FOR_IMAGE[hypotheses.LINEAR]] + [
     ("mirror_x", "exposure"), ("env_rotation", "srgb_encoded"), ("fov_horizontal", "half_pixel"),
-    ("env_u_mirror", "tonemap")]
+    ("env_u_mirror", "tonemap"), ("mirror_y", "env_rotation"), ("srgb_encoded", "exposure"),
+    ("mirror_x", "mirror_y"), ("fov_horizontal", "env_u_mirror")]
 
 
 @pytest.mark.mitsuba

@@ -1,4 +1,5 @@
-"""Which mistakes explain the engine's image: greedy forward selection, then backward elimination.
+"""Which mistakes explain the engine's image: greedy forward selection (and every pair tried from nothing,
+so that a single mistake mimicking a pair cannot hide it), then backward elimination.
 
 Forward: starting from no mistake, every mistake not yet accepted is added in turn (its parameter fitted,
 fitting.candidate) and scored (scoring.Scorer); the one whose correction raises the PSNR most is accepted
@@ -46,21 +47,38 @@ def select(renders: Renders, scorer: Scorer, names: list[str]) -> tuple[dict, li
         pred, fitted = fitting.predict(renders, m, scorer)
         return scorer.errors(pred), fitted
 
-    mistakes: dict = {}
-    current, _ = errors(mistakes)
-    while True:
-        best = None
-        for name in names:
-            if name in mistakes or hypotheses.EXCLUDES.get(name) in mistakes:
+    def forward(mistakes: dict, current: np.ndarray) -> tuple[dict, np.ndarray]:
+        while True:
+            best = None
+            for name in names:
+                if name in mistakes or hypotheses.EXCLUDES.get(name) in mistakes:
+                    continue
+                trial = fitting.candidate(name, renders, mistakes, scorer)
+                err, fitted = errors(trial)
+                gain, threshold = scorer.gain_db(current, err), scorer.threshold_db(current, err)
+                if gain >= threshold and (best is None or gain > best[0]):
+                    best = (gain, fitted, err)
+            if best is None:
+                return mistakes, current
+            _, mistakes, current = best
+
+    mistakes, current = forward({}, errors({})[0])
+    # Greedy forward selection can be caught by one mistake that mimics a pair better than either half
+    # does (sRGB-encoded radiance times 0.6 looks more like AgX than like sRGB or exposure alone), and then
+    # never reach the pair. So every pair is also tried from nothing (each half's parameter fitted in
+    # turn), and the best one, when it explains the image better than the greedy set by the threshold,
+    # is the start of a second forward pass.
+    best_pair = None
+    for i, a in enumerate(names):
+        for b in names[i + 1:]:
+            if hypotheses.EXCLUDES.get(a) == b or hypotheses.EXCLUDES.get(b) == a:
                 continue
-            trial = fitting.candidate(name, renders, mistakes, scorer)
+            trial = fitting.candidate(b, renders, fitting.candidate(a, renders, {}, scorer), scorer)
             err, fitted = errors(trial)
-            gain, threshold = scorer.gain_db(current, err), scorer.threshold_db(current, err)
-            if gain >= threshold and (best is None or gain > best[0]):
-                best = (gain, fitted, err)
-        if best is None:
-            break
-        _, mistakes, current = best
+            if best_pair is None or scorer.gain_db(best_pair[1], err) > 0:
+                best_pair = (fitted, err)
+    if best_pair is not None and scorer.gain_db(current, best_pair[1]) >= scorer.threshold_db(current, best_pair[1]):
+        mistakes, current = forward(*best_pair)
 
     while mistakes:
         costs = []
