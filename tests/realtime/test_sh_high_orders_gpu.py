@@ -11,9 +11,11 @@ import numpy as np
 import pytest
 
 from realtime.engine.context import get_context
+from realtime.engine.environment_maps import MAPPINGS, MapShProjector, environment_store, map_frame
 from realtime.engine.sh_orders import ShProjector
 from scenes.environment import cubemap
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
+from tests.realtime.test_render import small
 from tests.realtime.test_sh_orders_gpu import evaluate_on_gpu, random_directions
 
 pytestmark = pytest.mark.gl
@@ -97,6 +99,31 @@ def test_order_8_read_as_order_7_is_wrong(projectors):
     weighted7 = as7[1]  # order 7's `weighted` would start at vec4 64, inside order 8's coefficients
     want = c[:64] * COSINE_BAND_FACTORS[band_of(7)][:, None]
     assert np.abs(weighted7 - want).max() > 10 * RULE_ERROR * np.pi * np.abs(c).max()
+
+
+@pytest.mark.parametrize("name", list(MAPPINGS))
+def test_2d_parameterizations_project_order_8(name):
+    # map_sh_project.comp (PRT under realtime.parameterization = paraboloid / sphere_map) against the same
+    # texel sums in float64 numpy, with the parameterization's exact solid angles
+    scene = small("builtin:sphere-diffuse", **{"environment.rotation_deg": 30.0, "realtime.base_size": 32,
+                                                "realtime.face_size": 16, "realtime.parameterization": name})
+    mod = MAPPINGS[name]
+    store = environment_store(get_context(), scene)
+    projector = MapShProjector(get_context(), 8)
+    try:
+        store.fill_base(30.0)
+        store.build_chain()
+        projector.run(store, 1, 16)
+        c8, weighted = projector.read()
+        lvl = store.read_level(1).astype(np.float64)
+    finally:
+        projector.release()
+        store.release()
+    d32 = mod.texel_directions(32) @ map_frame(scene)
+    want = np.einsum("lijk,lij,lijc->kc", sh_basis(d32, 8), mod.texel_solid_angles(32), lvl)
+    scale = np.abs(want).max()
+    np.testing.assert_allclose(c8, want, atol=1e-5 * scale)
+    np.testing.assert_allclose(weighted, want * COSINE_BAND_FACTORS[band_of(8)][:, None], atol=1e-5 * np.pi * scale)
 
 
 @pytest.mark.parametrize("order", [2, 4, 6, 8])
