@@ -1,4 +1,5 @@
-"""SH irradiance of order 2, 3 or 4 on the GPU (docs/contract.md section 9, `diffuse = "sh"`, `sh_order`).
+"""SH projection and irradiance of orders 2..8 on the GPU (docs/contract.md section 9, `diffuse = "sh"`,
+`sh_order` 2..4; `diffuse = "prt"`, `[realtime.prt] order` 2..8).
 
 The paper's SH9 path (`EnvironmentFilter.project_sh`: sh_project.comp, sh_reduce.comp, the matrices M)
 stays as it is. This module projects a level of the same cube map onto (order + 1)^2 coefficients
@@ -14,6 +15,12 @@ shader that includes sh_basis.glsl computes the irradiance with one basis evalua
     float y[SH_COUNT]; sh_eval(n, y);  E = sum_k weighted[k].rgb * y[k]    (E = pi for radiance 1)
 
 `irradiance_weights` is the numpy reference of `weighted`.
+
+Limits at order 8 (81 coefficients): the result is an SSBO (2 x 81 vec4 = 2.6 KiB; no uniform block), the
+partial sums SSBO holds 81 vec4 per workgroup, and each workgroup sums its 64 invocations' 81 RGB values
+through shared memory 25 coefficients at a time (sh_workgroup_sum.glsl: 25.6 KiB, under GL's guaranteed
+32 KiB; all 81 at once would need 83 KiB). Each invocation keeps its 81 RGB sums and 81 basis values in
+registers (private memory on llvmpipe).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 #version 430
 // SH projection of one level of a 2D parameterization (realtime/engine/environment_maps.py), pass 1, any
-// order (SH_ORDER 2..4 from scenes.shbasis.glsl_defines): every texel adds L(w) Y_k(w) dOmega(w),
+// order (SH_ORDER 2..8 from scenes.shbasis.glsl_defines): every texel adds L(w) Y_k(w) dOmega(w),
 // with its world direction w and its exact solid angle (zero outside the disc) from texel_dir,
 // computed in float64 by numpy (scenes/environment/paraboloid.py, scenes/environment/spheremap.py). Blocks of
 // block x block texels per invocation, an 8x8 workgroup reduction, SH_COUNT partial sums per group:
@@ -12,8 +12,7 @@ uniform int size;
 uniform int block;
 layout(std430, binding = 1) writeonly buffer Partials { vec4 partial[]; };
 #include "sh_basis.glsl"
-
-shared vec3 acc[64][SH_COUNT];
+#include "sh_workgroup_sum.glsl"
 
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
@@ -32,15 +31,9 @@ void main() {
             for (int k = 0; k < SH_COUNT; ++k) c[k] += L * y[k];
         }
     }
-    for (int k = 0; k < SH_COUNT; ++k) acc[lid][k] = c[k];
-    barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride)
-            for (int k = 0; k < SH_COUNT; ++k) acc[lid][k] += acc[lid + stride][k];
-        barrier();
-    }
+    sh_workgroup_sum(lid, c);
     if (lid == 0u) {
         uint group = gl_WorkGroupID.x + gl_NumWorkGroups.x * (gl_WorkGroupID.y + gl_NumWorkGroups.y * gl_WorkGroupID.z);
-        for (int k = 0; k < SH_COUNT; ++k) partial[group * uint(SH_COUNT) + uint(k)] = vec4(acc[0][k], 0.0);
+        for (int k = 0; k < SH_COUNT; ++k) partial[group * uint(SH_COUNT) + uint(k)] = vec4(c[k], 0.0);
     }
 }

@@ -1,10 +1,10 @@
 #version 430
-// SH projection of any order (SH_ORDER 2..4, SH_COUNT = (SH_ORDER + 1)^2 coefficients; defines from
+// SH projection of any order (SH_ORDER 2..8, SH_COUNT = (SH_ORDER + 1)^2 coefficients; defines from
 // scenes.shbasis.glsl_defines), pass 1. Modelled on sh_project.comp (the paper's SH9, which stays as
 // it is): every texel of the selected level adds L(w) Y_k(w) dOmega(w). Each invocation sums a block
-// of block x block texels in registers, then the 8x8 workgroup reduces in shared memory and writes
+// of block x block texels in registers, then the 8x8 workgroup reduces (sh_workgroup_sum.glsl, in chunks of shared memory) and writes
 // SH_COUNT RGB partial sums. dOmega comes from a texture of exact texel solid angles (float64 numpy).
-layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;  // 64 x 25 x vec3 fits 32 KiB shared
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;  // 64 invocations (sh_workgroup_sum.glsl)
 layout(rgba32f, binding = 0) uniform readonly imageCube level;
 uniform sampler2D solid_angle;  // (size x size), R channel
 uniform int size;
@@ -12,8 +12,7 @@ uniform int block;  // texels per invocation along each axis
 layout(std430, binding = 1) writeonly buffer Partials { vec4 partial[]; };  // SH_COUNT per workgroup
 #include "common.glsl"
 #include "sh_basis.glsl"
-
-shared vec3 acc[64][SH_COUNT];
+#include "sh_workgroup_sum.glsl"
 
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
@@ -33,15 +32,9 @@ void main() {
             for (int k = 0; k < SH_COUNT; ++k) c[k] += L * y[k];
         }
     }
-    for (int k = 0; k < SH_COUNT; ++k) acc[lid][k] = c[k];
-    barrier();
-    for (uint stride = 32u; stride > 0u; stride >>= 1u) {
-        if (lid < stride)
-            for (int k = 0; k < SH_COUNT; ++k) acc[lid][k] += acc[lid + stride][k];
-        barrier();
-    }
+    sh_workgroup_sum(lid, c);
     if (lid == 0u) {
         uint group = gl_WorkGroupID.x + gl_NumWorkGroups.x * (gl_WorkGroupID.y + gl_NumWorkGroups.y * gl_WorkGroupID.z);
-        for (int k = 0; k < SH_COUNT; ++k) partial[group * uint(SH_COUNT) + uint(k)] = vec4(acc[0][k], 0.0);
+        for (int k = 0; k < SH_COUNT; ++k) partial[group * uint(SH_COUNT) + uint(k)] = vec4(c[k], 0.0);
     }
 }

@@ -1,5 +1,5 @@
 """The real SH basis on world (x, y, z) directions: the paper's SH9 (docs/contract.md section 3, eq. 8)
-and its extension to orders 3 and 4 (16 and 25 coefficients, docs/contract.md section 9, `sh_order`).
+and its extension to orders 3..8 (16..81 coefficients; `sh_order` uses 3 and 4, PRT up to 8).
 
 Order: Y00, Y1-1, Y10, Y11, Y2-2, Y2-1, Y20, Y21, Y22 (Ramamoorthi & Hanrahan 2001, eq. 3):
     Y00 = 0.282095;  Y1-1 = 0.488603 y;  Y10 = 0.488603 z;  Y11 = 0.488603 x;
@@ -20,6 +20,11 @@ associated Legendre function without the (-1)^m phase). The normalisation is the
 Sloan 2008, "Stupid spherical harmonics (SH) tricks", appendix; Filament's CubemapSH uses the same
 polynomials). The constants of bands 3 and 4 are computed from it below in float64; bands 0-2 keep the
 paper's 6-digit literals, so `sh_basis(d, 2)` is `sh9(d)` bit for bit.
+
+Bands 5..8 are evaluated generically (numpy here, GLSL in sh_basis.glsl, the same arithmetic): per (l, m)
+the polynomial N_lm P_l^(m)(z), stored as float64 coefficients in z^2 (times z when l - m is odd, the
+parity of P_l^(m)), evaluated by Horner's rule, times Re / Im (x + iy)^m built by the complex
+recurrence (x + iy)^m = (x + iy)^(m-1) (x + iy).
 """
 
 from __future__ import annotations
@@ -32,11 +37,29 @@ C0, C1, C2, C3, C4 = 0.282095, 0.488603, 1.092548, 0.315392, 0.546274
 #: the band l of each of the nine coefficients
 BAND = np.array([0, 1, 1, 1, 2, 2, 2, 2, 2])
 #: the highest supported order (band)
-MAX_ORDER = 4
+MAX_ORDER = 8
+#: the first band evaluated by the generic polynomial tables (bands 0..4 have their own literals)
+FIRST_GENERIC_BAND = 5
+
+
+def _cosine_band_factor(l: int) -> float:
+    """A_l = 2 pi int_0^1 P_l(t) t dt for l >= 2 (Ramamoorthi & Hanrahan 2001, "An efficient representation
+    for irradiance environment maps", eq. 8 with A_l = sqrt(4 pi / (2l + 1)) hat-A_l):
+        A_l = 0 for odd l > 1;
+        A_l = 2 pi (-1)^(l/2 - 1) / ((l + 2)(l - 1)) * l! / (2^l ((l/2)!)^2) for even l
+    which gives pi/4, -pi/24, pi/64, -pi/128 for l = 2, 4, 6, 8."""
+    if l % 2:
+        return 0.0
+    half = l // 2
+    return (2 * math.pi * (-1) ** (half - 1) / ((l + 2) * (l - 1))
+            * math.factorial(l) / (2**l * math.factorial(half) ** 2))
+
 
 #: Ramamoorthi & Hanrahan 2001 (eq. 8-9): the clamped cosine max(cos, 0) has zonal factors
-#: A_l = 2 pi int_0^1 P_l(t) t dt = pi, 2pi/3, pi/4, 0, -pi/24 for l = 0..4 (A_l = 0 for odd l > 1)
-COSINE_BAND_FACTORS = np.array([np.pi, 2 * np.pi / 3, np.pi / 4, 0.0, -np.pi / 24])
+#: A_l = 2 pi int_0^1 P_l(t) t dt = pi, 2pi/3, pi/4, 0, -pi/24 for l = 0..4 (these literals), and for
+#: l = 5..8 the closed form of `_cosine_band_factor` (0, pi/64, 0, -pi/128)
+COSINE_BAND_FACTORS = np.array([np.pi, 2 * np.pi / 3, np.pi / 4, 0.0, -np.pi / 24]
+                               + [_cosine_band_factor(l) for l in range(FIRST_GENERIC_BAND, MAX_ORDER + 1)])
 
 
 def _norm(l: int, m: int) -> float:
@@ -60,6 +83,64 @@ K41 = _norm(4, 1) * 5 / 2  # (x | y) z (7z^2 - 3)                  = 0.6690465
 K42 = _norm(4, 2) * 15 / 2  # (x^2 - y^2 | 2xy) (7z^2 - 1)         = 0.4730873
 K43 = _norm(4, 3) * 105  # z (x (x^2 - 3y^2) | y (3x^2 - y^2))     = 1.770131
 K44 = _norm(4, 4) * 105  # x^4 - 6x^2y^2 + y^4 | 4xy (x^2 - y^2)   = 0.6258357
+
+def _legendre_derivative(l: int, m: int) -> np.ndarray:
+    """Coefficients (increasing powers of z, float64) of P_l^(m)(z), the m-th derivative of P_l, from the
+    associated Legendre recurrence without the sin^m(theta) factor and the (-1)^m phase (Abramowitz &
+    Stegun 8.5.3, which holds for the derivatives alike):
+        P_m^(m) = (2m - 1)!!,   P_(m-1)^(m) = 0,
+        (l - m) P_l^(m) = (2l - 1) z P_(l-1)^(m) - (l + m - 1) P_(l-2)^(m).
+    The coefficients are dyadic rationals: exact in float64 for these bands."""
+    prev = np.zeros(l + 1)  # P_(m-1)^(m) = 0
+    cur = np.zeros(l + 1)
+    cur[0] = float(math.prod(range(1, 2 * m, 2)))  # (2m - 1)!!
+    for n in range(m + 1, l + 1):
+        nxt = np.zeros(l + 1)
+        nxt[1:] = (2 * n - 1) * cur[:-1]  # (2n - 1) z P_(n-1)^(m)
+        nxt -= (n + m - 1) * prev
+        prev, cur = cur, nxt / (n - m)
+    return cur
+
+
+def _generic_polynomial(l: int, m: int) -> np.ndarray:
+    """N_lm P_l^(m)(z) as coefficients in z^2 (increasing powers); the polynomial is z^((l - m) mod 2) times it."""
+    return _norm(l, m) * _legendre_derivative(l, m)[(l - m) % 2 : l - m + 1 : 2]
+
+
+#: per band l >= FIRST_GENERIC_BAND, the z^2-coefficients of N_lm P_l^(m) for m = 0..l, concatenated (m
+#: ascending, each (l - m) // 2 + 1 values): the table sh_basis and sh_basis.glsl walk
+GENERIC_POLYNOMIALS: dict[int, np.ndarray] = {
+    l: np.concatenate([_generic_polynomial(l, m) for m in range(l + 1)])
+    for l in range(FIRST_GENERIC_BAND, MAX_ORDER + 1)
+}
+
+
+def _generic_bands(x: np.ndarray, y: np.ndarray, z: np.ndarray, order: int) -> list[np.ndarray]:
+    """Bands FIRST_GENERIC_BAND..order, each (..., 2l + 1), in sh_basis.glsl's arithmetic."""
+    z2 = z * z
+    re, im = [np.ones_like(x)], [np.zeros_like(x)]
+    for _ in range(order):  # (x + iy)^m = (x + iy)^(m-1) (x + iy)
+        re.append(re[-1] * x - im[-1] * y)
+        im.append(re[-2] * y + im[-1] * x)
+    out = []
+    for l in range(FIRST_GENERIC_BAND, order + 1):
+        table, p = GENERIC_POLYNOMIALS[l], 0
+        band = [None] * (2 * l + 1)
+        for m in range(l + 1):
+            n = (l - m) // 2 + 1
+            q = np.zeros_like(z)
+            for j in range(n - 1, -1, -1):  # Horner in z^2
+                q = q * z2 + table[p + j]
+            p += n
+            if (l - m) % 2:
+                q = q * z
+            if m == 0:
+                band[l] = q
+            else:
+                band[l + m], band[l - m] = q * re[m], q * im[m]
+        out.append(np.stack(band, axis=-1))
+    return out
+
 
 #: GLSL names and values of the constants per band (bands 0-2: the exact literals of sh_project.comp)
 _GLSL_CONSTANTS: dict[int, tuple[tuple[str, str], ...]] = {
@@ -88,7 +169,7 @@ def order_of(n_coeffs: int) -> int:
     """The order whose coefficient count is n_coeffs (9 -> 2, 16 -> 3, 25 -> 4)."""
     order = math.isqrt(n_coeffs) - 1
     if order < 0 or count(order) != n_coeffs or order > MAX_ORDER:
-        raise ValueError(f"{n_coeffs} is not an SH coefficient count (1, 4, 9, 16, 25)")
+        raise ValueError(f"{n_coeffs} is not an SH coefficient count ((order + 1)^2, order 0..{MAX_ORDER})")
     return order
 
 
@@ -108,7 +189,7 @@ def sh9(d: np.ndarray) -> np.ndarray:
 
 
 def sh_basis(d: np.ndarray, order: int) -> np.ndarray:
-    """Basis values (..., (order + 1)^2) at unit directions d (..., 3), bands 0..order (order <= 4)."""
+    """Basis values (..., (order + 1)^2) at unit directions d (..., 3), bands 0..order (order <= MAX_ORDER)."""
     if not 0 <= order <= MAX_ORDER:
         raise ValueError(f"SH order must be 0..{MAX_ORDER}, got {order}")
     y9 = sh9(d)
@@ -129,6 +210,8 @@ def sh_basis(d: np.ndarray, order: int) -> np.ndarray:
         band4 = [K44 * im4, K43 * z * im3, a42 * im2, a41 * y, K40 * ((35 * z2 - 30) * z2 + 3),
                  a41 * x, a42 * re2, K43 * z * re3, K44 * re4]
         out.append(np.stack(band4, axis=-1))
+    if order >= FIRST_GENERIC_BAND:
+        out += _generic_bands(x, y, z, order)
     return np.concatenate(out, axis=-1)
 
 
@@ -137,12 +220,16 @@ def glsl_defines(order: int) -> tuple[str, ...]:
 
     SH_ORDER, SH_COUNT, the basis constants of bands 0..order (SH_C0..SH_C4 for bands 0-2, the
     paper's literals; SH_K3m for m = 0..3, SH_K4m for m = 0..4, each multiplying the polynomial
-    named beside K3m / K4m above), and the clamped-cosine factors SH_A0..SH_A<order>.
+    named beside K3m / K4m above; for order >= 5 SH_POLY, the GENERIC_POLYNOMIALS of bands 5..order
+    concatenated as a GLSL float[] constructor), and the clamped-cosine factors SH_A0..SH_A<order>.
     """
     if not 2 <= order <= MAX_ORDER:
         raise ValueError(f"the GLSL SH evaluation supports orders 2..{MAX_ORDER}, got {order}")
     out = [f"SH_ORDER {order}", f"SH_COUNT {count(order)}"]
-    for band in range(order + 1):
+    for band in range(min(order, FIRST_GENERIC_BAND - 1) + 1):
         out += [f"{name} {value}" for name, value in _GLSL_CONSTANTS[band]]
+    if order >= FIRST_GENERIC_BAND:
+        table = np.concatenate([GENERIC_POLYNOMIALS[l] for l in range(FIRST_GENERIC_BAND, order + 1)])
+        out.append(f"SH_POLY float[]({', '.join(_glsl_float(v) for v in table)})")
     out += [f"SH_A{band} {_glsl_float(COSINE_BAND_FACTORS[band])}" for band in range(order + 1)]
     return tuple(out)

@@ -185,7 +185,7 @@ def test_cosine_band_factors_by_funk_hecke():
     # A_l = 2 pi int_0^1 P_l(t) t dt, and R&H 2001's closed forms
     ours = [cosine_factor(l) for l in range(5)]
     np.testing.assert_allclose(ours, [np.pi, 2 * np.pi / 3, np.pi / 4, 0.0, -np.pi / 24], atol=1e-14)
-    np.testing.assert_allclose(COSINE_BAND_FACTORS, ours, atol=1e-14)
+    np.testing.assert_allclose(COSINE_BAND_FACTORS[:5], ours, atol=1e-14)
 
 
 def test_projection_of_the_clamped_cosine_is_zonal_with_the_band_factors():

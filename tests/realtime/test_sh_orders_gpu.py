@@ -161,4 +161,4 @@ def test_run_checks_its_arguments(studio, projectors):
     with pytest.raises(ValueError):
         projectors[4].run(studio.cube, 0, 64, (1.0, 1.0, 1.0))
     with pytest.raises(ValueError):
-        ShProjector(get_context(), 5)
+        ShProjector(get_context(), 9)

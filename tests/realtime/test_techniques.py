@@ -79,7 +79,7 @@ def test_a_value_marked_not_implemented_is_refused_not_ignored(monkeypatch):
      ["realtime.interreflection", "realtime.prt.bounces"]),
     ({"realtime.diffuse": "prt", "realtime.prt.bounces": 1}, ["realtime.prt.bounces", "realtime.interreflection"]),
     ({"realtime.diffuse": "prt", "realtime.prt.rays": 64}, ["realtime.prt.rays", "realtime.occlusion"]),
-    ({"realtime.diffuse": "prt", "realtime.prt.order": 5}, ["realtime.prt.order"]),
+    ({"realtime.diffuse": "prt", "realtime.prt.order": 9}, ["realtime.prt.order"]),
     ({"reference.lighting": "light_array"}, ["reference.lighting", "realtime.diffuse"]),
     ({"realtime.diffuse": "prt", "objects.0.material.two_sided": True}, ["realtime.diffuse", "objects[0]",
                                                                           "two_sided", "front side"]),

@@ -14,7 +14,7 @@ from scenes.storage.errors import SceneError
 @dataclass(frozen=True)
 class Prt:
     """[realtime.prt]: precomputed radiance transfer (prt_transfer.py, prt.py)."""
-    order: int = param(2, number(2, 4, integer=True))  # SH order of the transfer (2: 9 coefficients ... 4: 25)
+    order: int = param(2, number(2, 8, integer=True))  # SH order of the transfer (2: 9 coefficients ... 8: 81)
     rays: int = param(256, number(1, 1 << 16, integer=True))  # visibility rays per vertex (occlusion = "prt")
     bounces: int = param(0, number(0, 16, integer=True))  # interreflected bounces (>= 1 with interreflection)
 

@@ -10,7 +10,9 @@ visibility rays through Embree) of SH `order`, per colour channel:
 Every frame (`filter`, as the paper's SH projection): the environment's SH coefficients of the selected
 mip level (sh_project_n.comp, the same projection `diffuse = "sh"` uses, unwindowed); the shading pass
 dots them with each vertex's T (shade.vert) and interpolates E across the triangle. All the cost is in
-the precomputation; per frame it is a (order + 1)^2 dot product per vertex.
+the precomputation; per frame it is a (order + 1)^2 dot product per vertex (orders 2..8: 9..81
+coefficients per colour, read from an SSBO by gl_VertexID; `limits.check_storage` warns when an object's
+transfer, V x (order + 1)^2 x 3 floats, exceeds the driver's promised block size).
 
 The transfer is the front side's: scenes refuse PRT on two-sided materials (scenes/model/scene.py), and bounces
 gather only light leaving front faces, with the object's kd as its albedo (a blend's Fresnel weight

@@ -50,8 +50,14 @@ Rays: one trimesh.Trimesh of all objects (process=False) and its Embree intersec
 silent slow fallback: RuntimeError without it), first hits via `intersects_first` (Embree's
 watertight test; the hit point for the barycentrics is the ray / face-plane intersection in float64,
 barycentrics by `trimesh.triangles.points_to_barycentric`, clamped to the triangle). Vertices go in
-chunks of at most MAX_RAYS_PER_CHUNK rays (bounded memory, for the SH evaluation of the occluded
-directions too).
+chunks of at most MAX_RAYS_PER_CHUNK rays and at most MAX_SH_VALUES_PER_CHUNK basis values (rays x
+coefficients; bounded memory for the SH evaluation of the occluded directions at orders up to 8: the same
+chunks as by rays alone up to order 4).
+
+Memory guard (`transfer_bytes`, `check_memory`): the host arrays the transfer needs grow with vertices x
+(order + 1)^2 (81 coefficients at order 8, 3.24 x order 4's); a configuration whose estimate exceeds
+`memory_limit()` (half the machine's physical memory) is refused before anything is traced, with the bytes
+it needs.
 
 Cache (`cached_transfer`): `scenes.storage.disk_cache.cache_dir() / "prt" / "<key>.npz"`, key = SHA-256 of
 every object's positions / normals / indices (dtype, shape, bytes), kd, two_sided, order, rays,
@@ -68,6 +74,7 @@ import contextlib
 import hashlib
 import json
 import math
+import os
 import sys
 import time
 import warnings
@@ -88,7 +95,9 @@ TRANSFER_VERSION = 1
 EPSILON_FRACTION = 1e-4
 #: the most rays traced (and SH-evaluated) at once
 MAX_RAYS_PER_CHUNK = 1 << 19
-#: supported SH orders (COSINE_BAND_FACTORS has bands 0..4; the GLSL evaluation starts at order 2)
+#: the most basis values (rays x coefficients) evaluated at once: order 4's 25 per ray at full chunks
+MAX_SH_VALUES_PER_CHUNK = MAX_RAYS_PER_CHUNK * 25
+#: supported SH orders (COSINE_BAND_FACTORS has bands 0..8; the GLSL evaluation starts at order 2)
 MIN_ORDER, MAX_ORDER = 2, len(COSINE_BAND_FACTORS) - 1
 _GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 1 / phi
 
@@ -147,6 +156,39 @@ def _check_settings(order: int, rays: int, bounces: int, shadowed: bool) -> None
     if bounces and not shadowed:
         raise ValueError(f"PRT bounces = {bounces} needs shadowed transfer (interreflection gathers over the "
                          "visibility rays)")
+
+
+def memory_limit() -> int:
+    """The most host bytes a transfer may plan for: half the machine's physical memory."""
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
+
+
+def _chunk_vertices(order: int, rays: int) -> int:
+    """Vertices per chunk: at most MAX_RAYS_PER_CHUNK rays and MAX_SH_VALUES_PER_CHUNK basis values."""
+    return max(1, min(MAX_RAYS_PER_CHUNK // rays, MAX_SH_VALUES_PER_CHUNK // (rays * count(order))))
+
+
+def transfer_bytes(vertices: int, order: int, rays: int, bounces: int, shadowed: bool) -> int:
+    """Estimated peak host bytes of `transfer`: the float64 unshadowed transfer (V, K), the float64 total
+    (V, K, 3) and, with bounces, the bounce term and the gathered product (two more); the float32 result
+    (V, K, 3); when shadowed, a chunk's directions and ray origins (3 float64 each per ray, plus the hit
+    mask and triangle ids) and its basis values (K float64 per ray, twice: values and the reduction)."""
+    k = count(order)
+    host = vertices * k * 8 + vertices * k * 3 * 8 * (3 if bounces else 1) + vertices * k * 3 * 4
+    if shadowed:
+        n_rays = min(vertices, _chunk_vertices(order, rays)) * rays
+        host += n_rays * (3 * 8 * 2 + 1 + 8) + n_rays * k * 8 * 2
+    return int(host)
+
+
+def check_memory(vertices: int, order: int, rays: int, bounces: int, shadowed: bool) -> None:
+    """MemoryError, saying what is needed, when `transfer_bytes` exceeds `memory_limit()`."""
+    need, have = transfer_bytes(vertices, order, rays, bounces, shadowed), memory_limit()
+    if need > have:
+        raise MemoryError(f"PRT of {vertices} vertices at order {order} ({count(order)} coefficients), {rays} rays, "
+                          f"{bounces} bounces needs about {need / 2**30:.2f} GiB of host memory, above the "
+                          f"{have / 2**30:.2f} GiB allowed (half the physical memory): lower "
+                          "realtime.prt.order or the mesh resolution")
 
 
 def _unshadowed(normals: np.ndarray, order: int) -> np.ndarray:
@@ -224,7 +266,7 @@ def _trace(objs: list[_Checked], order: int, rays: int, bounces: int, seed: int,
     # per-vertex Cranley-Patterson rotations, drawn once for all vertices: chunking does not change them
     shifts = np.random.default_rng(seed).random((v_total, 2))
     lattice = _lattice(rays)
-    chunk = max(1, MAX_RAYS_PER_CHUNK // rays)
+    chunk = _chunk_vertices(order, rays)
     starts = range(0, v_total, chunk)
     if len(faces) == 0:  # nothing to hit: every ray escapes
         return shadowed, (sparse.csr_matrix((v_total, v_total)) if bounces else None)
@@ -280,6 +322,7 @@ def _transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces:
     if len(objects) == 0:
         raise ValueError("PRT needs at least one object")
     objs = [_check_object(i, o) for i, o in enumerate(objects)]
+    check_memory(sum(len(o.positions) for o in objs), order, rays, bounces, shadowed)
     base = np.concatenate([_unshadowed(o.normals, order) for o in objs])  # (V, K)
     traced = 0
     if not shadowed:
@@ -313,8 +356,9 @@ def transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: 
 
     shadowed=False: A_l Y_k(n), exact (rays and seed unused; bounces must be 0). shadowed=True:
     `rays` cosine-weighted visibility rays per vertex, then `bounces` gathering bounces (module
-    docstring). Deterministic for a seed. ValueError for order outside 2..4, bounces without shadows, or
-    bad inputs (naming the object); RuntimeError when shadowed and embreex is missing. progress=True: a
+    docstring). Deterministic for a seed. ValueError for order outside 2..8, bounces without shadows, or
+    bad inputs (naming the object); MemoryError when `check_memory` refuses; RuntimeError when shadowed
+    and embreex is missing. progress=True: a
     rich progress bar over vertex chunks on stderr.
     """
     return _transfer(objects, order, rays, bounces, shadowed, seed, progress)[0]
@@ -419,6 +463,7 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     key = transfer_key(objects, order, rays, bounces, shadowed, seed)
     folder = cache_dir() / "prt"
     vertices = sum(len(o.positions) for o in objs)
+    check_memory(vertices, int(order), int(rays), int(bounces), shadowed)  # before any cache read or trace
     shapes = [(len(o.positions), count(int(order)), 3) for o in objs]
     entry = _load(folder / f"{key}.npz", shapes, vertices, vertices * int(rays) if shadowed else 0)
     if entry is not None:
