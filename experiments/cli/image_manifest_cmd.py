@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from experiments.cli.inputs import UsageError, parse_sets
+from experiments.cli.inputs import UsageError, gate_options, parse_sets
 from experiments.measure.results import RESULTS, folder_lock, store_in
 from experiments.publish import outputs
 from experiments.publish.report import build as build_report
@@ -28,12 +28,7 @@ def _manifest(args: argparse.Namespace, command: str) -> str:
 def gate_images(args: argparse.Namespace) -> int:
     """The gate over a manifest's images: thresholds, baseline, JUnit and Markdown as `iblcheck gate`."""
     manifest = _manifest(args, "gate")
-    cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
-    tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
-                  "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
-    given = [f"--{k.replace('_', '-')}" for k, v in tolerances.items() if v is not None]
-    if given and not args.baseline:
-        raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
+    cli, tolerances = gate_options(args)
     with outputs.Outputs() as plan:
         baseline = gate.read_baseline(args.baseline) if args.baseline else None
         loaded = image_manifest.gate_plan(manifest, cli, parse_sets(args.set),

@@ -67,3 +67,15 @@ def parse_list(text: str | None, kind: type, flag: str) -> list | None:
         return [kind(x.strip()) for x in text.split(",") if x.strip()]
     except ValueError:
         raise UsageError(f"{flag} {text!r}: expected a comma-separated list of {kind.__name__} values") from None
+
+
+def gate_options(args) -> tuple[dict, dict]:
+    """(thresholds, baseline tolerances) of `iblcheck gate`'s options, for scenes and for a manifest's images
+    alike; a tolerance without --baseline is a UsageError."""
+    cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
+    tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
+                  "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
+    given = [f"--{k.replace('_', '-')}" for k, v in tolerances.items() if v is not None]
+    if given and not args.baseline:
+        raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
+    return cli, tolerances

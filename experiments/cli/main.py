@@ -27,7 +27,7 @@ from pathlib import Path
 from types import ModuleType
 
 from experiments.cli import compare_image_cmd, diagnose_cmd, export_cmd, image_manifest_cmd, render_cmd
-from experiments.cli.inputs import UsageError, load_scene, parse_axis, parse_list, parse_sets
+from experiments.cli.inputs import UsageError, gate_options, load_scene, parse_axis, parse_list, parse_sets
 from experiments.measure.results import folder_lock, store_in
 from experiments.paper import registry
 from experiments.paper import suite as paper
@@ -310,12 +310,7 @@ def _cmd_gate(args: argparse.Namespace) -> int:
         raise UsageError("--report: not with --images yet (a report holds iblcheck's own renders)")
     if args.images or not args.scenes:
         return image_manifest_cmd.gate_images(args)
-    cli = {"min_psnr": args.min_psnr, "min_ssim": args.min_ssim, "max_flip": args.max_flip}
-    tolerances = {"tolerance_db": args.tolerance_db, "tolerance_ssim": args.tolerance_ssim,
-                  "tolerance_flip": args.tolerance_flip, "max_time_ratio": args.max_time_ratio}
-    given = [f"--{k.replace('_', '-')}" for k, v in tolerances.items() if v is not None]
-    if given and not args.baseline:
-        raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
+    cli, tolerances = gate_options(args)
     with outputs.Outputs() as plan:
         baseline = gate.read_baseline(args.baseline) if args.baseline else None
         loaded = gate.load(args.scenes, cli, parse_sets(args.set),

@@ -272,17 +272,22 @@ class Pair:
     measurement: Measurement
 
 
+def _references(scene, step: Callable[[str], None]) -> tuple[str, Render, Render | None]:
+    """(the scene's name for the progress bar, its reference, its second seed), each step announced."""
+    name = one_line(scene.name, 60)
+    step(f"{name}: reference")
+    reference = groundtruth.render(scene)
+    step(f"{name}: reference, second seed")
+    return name, reference, comparison.second_reference(reference, scene)
+
+
 def measure(scene, step: Callable[[str], None] | None = None, noise: bool = True) -> Measured:
     """Render `scene`'s reference (and its second seed) and its real-time image, and compare them:
     comparison.run in steps, each announced to `step` (a progress bar), with the reference-noise
     standard errors of SSIM and FLIP (`metric_noise`, reusing the pair's SSIM and FLIP maps) when `noise`."""
     step = step or (lambda text: None)
     t0 = time.perf_counter()
-    name = one_line(scene.name, 60)
-    step(f"{name}: reference")
-    reference = groundtruth.render(scene)
-    step(f"{name}: reference, second seed")
-    reference2 = comparison.second_reference(reference, scene)
+    name, reference, reference2 = _references(scene, step)
     step(f"{name}: real-time")
     test = comparison.render_realtime(scene)
     step(f"{name}: metrics")
@@ -300,11 +305,7 @@ def measure_image(scene, image, step: Callable[[str], None] | None = None, noise
     """`measure` of an engine's image (experiments/measure/engine_image.py) instead of the real-time render."""
     step = step or (lambda text: None)
     t0 = time.perf_counter()
-    name = one_line(scene.name, 60)
-    step(f"{name}: reference")
-    reference = groundtruth.render(scene)
-    step(f"{name}: reference, second seed")
-    reference2 = comparison.second_reference(reference, scene)
+    name, reference, reference2 = _references(scene, step)
     step(f"{name}: image {one_line(image.path.name, 60)}")
     c = engine_image.compare_image(image, scene, reference, reference2)
     step(f"{name}: metrics")
