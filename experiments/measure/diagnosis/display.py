@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from experiments.measure.diagnosis.golden import golden_section
 from scenes.model import tone_operators
 from scenes.model.tonemap import srgb_encode
 
@@ -36,7 +37,6 @@ EXPOSURE_RANGE = (1.0 / 16.0, 16.0)
 EXPOSURE_GRID = 0.25
 #: golden-section tolerance in ln k (0.1 %)
 EXPOSURE_TOL = 1e-3
-INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 @dataclass(frozen=True)
@@ -78,17 +78,6 @@ class Display:
         best = grid[int(np.argmin(values))]
         a, b = max(lo, best - EXPOSURE_GRID), min(hi, best + EXPOSURE_GRID)
         tol = EXPOSURE_TOL / math.log(2.0)  # ln k tolerance in log2 units
-        c, d = b - INV_PHI * (b - a), a + INV_PHI * (b - a)
-        fc, fd = mse(c), mse(d)
-        while b - a > tol:
-            if fc <= fd:
-                b, d, fd = d, c, fc
-                c = b - INV_PHI * (b - a)
-                fc = mse(c)
-            else:
-                a, c, fc = c, d, fd
-                d = a + INV_PHI * (b - a)
-                fd = mse(d)
-        x = 0.5 * (a + b)
+        x = golden_section(mse, a, b, tol)
         # the grid point itself when the search (on a piecewise-constant rounded MSE) ends worse
         return float(2.0 ** (x if mse(x) <= min(values) else best))

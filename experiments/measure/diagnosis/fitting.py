@@ -22,6 +22,7 @@ import math
 import numpy as np
 
 from experiments.measure.diagnosis import hypotheses
+from experiments.measure.diagnosis.golden import golden_section
 from experiments.measure.diagnosis.renders import Renders
 from experiments.measure.diagnosis.scoring import Scorer
 from scenes.model import tone_operators
@@ -32,7 +33,6 @@ REFINE_TOL_DEG = 0.5
 #: the half-width of the parabola fitted on the reference around the proxy's best angle
 FINAL_STEP_DEG = 1.0
 #: the golden ratio's conjugate, (sqrt 5 - 1) / 2: golden-section search keeps this fraction per step
-INV_PHI = (math.sqrt(5.0) - 1.0) / 2.0
 
 
 def operators(scorer: Scorer) -> tuple[str, ...]:
@@ -92,7 +92,8 @@ def fit_angle(renders: Renders, mistakes: dict, scorer: Scorer) -> dict:
     n = len(coarse)
     minima = [i for i in range(n) if values[i] <= values[(i - 1) % n] and values[i] <= values[(i + 1) % n]]
     minima = sorted(minima, key=lambda i: values[i])[:TOP]
-    refined = [_golden(proxy_mse, coarse[i] - COARSE_STEP_DEG, coarse[i] + COARSE_STEP_DEG) for i in minima]
+    refined = [golden_section(proxy_mse, coarse[i] - COARSE_STEP_DEG, coarse[i] + COARSE_STEP_DEG, REFINE_TOL_DEG)
+               for i in minima]
 
     def mse(angle: float) -> float:
         trial = {**base, "env_rotation": _wrap(round(angle, 1))}
@@ -112,22 +113,6 @@ def _parabola_vertex(f, x: float, h: float) -> float:
         return x if f1 <= min(f0, f2) else (x - h if f0 < f2 else x + h)
     return x + float(np.clip(0.5 * h * (f0 - f2) / curvature, -h, h))
 
-
-def _golden(f, lo: float, hi: float) -> float:
-    """The minimum of a unimodal f on [lo, hi] to REFINE_TOL_DEG (golden-section search, Kiefer 1953)."""
-    a, b = lo, hi
-    c, d = b - INV_PHI * (b - a), a + INV_PHI * (b - a)
-    fc, fd = f(c), f(d)
-    while b - a > REFINE_TOL_DEG:
-        if fc <= fd:
-            b, d, fd = d, c, fc
-            c = b - INV_PHI * (b - a)
-            fc = f(c)
-        else:
-            a, c, fc = c, d, fd
-            d = a + INV_PHI * (b - a)
-            fd = f(d)
-    return 0.5 * (a + b)
 
 
 def candidate(name: str, renders: Renders, mistakes: dict, scorer: Scorer) -> dict:
