@@ -160,15 +160,20 @@ def test_worker_killed_mid_task_is_retried_and_every_row_comes_out_once(tmp_path
         pids = c.client.run(os.getpid)
 
         def kill_one_mid_task():
+            # The task itself logs its start, so the kill lands inside its one-second sleep; the scheduler's
+            # view of what a worker is processing includes tasks that have not started yet.
+            starts = cache / "starts.log"
+            worker_pids = set(pids.values())
             deadline = time.time() + 60
             while time.time() < deadline:
-                busy = [w for w, keys in c.client.processing().items() if keys and w in pids]
-                if busy:
-                    time.sleep(0.4)  # inside the task's first second
-                    os.kill(pids[busy[0]], signal.SIGKILL)
-                    killed.append(pids[busy[0]])
+                lines = starts.read_text().splitlines() if starts.exists() else []
+                running = [int(p[1]) for p in map(str.split, lines) if len(p) == 2 and int(p[1]) in worker_pids]
+                if running:
+                    time.sleep(0.3)
+                    os.kill(running[0], signal.SIGKILL)
+                    killed.append(running[0])
                     return
-                time.sleep(0.05)
+                time.sleep(0.02)
 
         killer = threading.Thread(target=kill_one_mid_task, daemon=True)
         killer.start()
