@@ -54,19 +54,30 @@ def count_steps(settings: Settings) -> int:
     return len(settings.sizes) * len(settings.resolutions)
 
 
-def measure(settings: Settings, progress: Callable[[str], None] | None = None) -> list[Row]:
+def measure(settings: Settings, step: Callable[[], None] | None = None,
+            log: Callable[[str], None] | None = None) -> list[Row]:
+    """Every atrium at every resolution; `step()` after each (count_steps in all; the paper's Context.progress),
+    `log(line)` with its voxel count and voxelisation times."""
+
+    def done(line: str) -> None:
+        if log:
+            log(line)
+        if step:
+            step()
+
     rows: list[Row] = []
     for size in settings.sizes:
         mesh = atrium.atrium_of_size(size)
         tris = compare.triangles_of(mesh.positions, mesh.indices)
         rows += compare.measure(f"atrium {size}", tris, settings.resolutions, settings.cascades, settings.repeats,
-                                progress)
+                                done)
     return rows
 
 
-def run(out_dir: Path, settings: Settings, progress: Callable[[str], None] | None = None) -> Part:
+def run(out_dir: Path, settings: Settings, step: Callable[[], None] | None = None,
+        log: Callable[[str], None] | None = None) -> Part:
     """Measure, plot into out_dir/FIGURE and return the part."""
-    rows = measure(settings, progress)
+    rows = measure(settings, step, log)
     return part(rows, figure.plot(rows, Path(out_dir) / FIGURE), settings)
 
 

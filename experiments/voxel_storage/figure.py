@@ -36,7 +36,7 @@ def plot(rows: list[Row], path: Path) -> Path:
         ax.set_yscale("log")
         ax.set_xticks(resolutions, [str(r) for r in resolutions])
         ax.set_xlabel("resolution (voxels per side, finest)")
-        ax.set_title(label_text(f"{title}\n{largest}", 90), fontsize=9)
+        ax.set_title(f"{title}\n{label_text(largest)}", fontsize=9)
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=7)
     ax = axes[3]

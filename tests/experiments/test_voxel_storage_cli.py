@@ -103,3 +103,10 @@ def test_quick_paper_part(tmp_path):
     assert dense.by_resolution == pytest.approx((64 / 3, 64 / 3))
     assert any("seed's claim" in line for line in part.lines)
     assert part.verdict.holds is None  # one scene size: not decided
+
+
+def test_quick_part_steps_as_counted(tmp_path):
+    steps, lines = [], []
+    e10_voxel_storage.run(tmp_path, e10_voxel_storage.QUICK, step=lambda: steps.append(1), log=lines.append)
+    assert len(steps) == e10_voxel_storage.count_steps(e10_voxel_storage.QUICK) == 2
+    assert all("voxels" in line for line in lines)
