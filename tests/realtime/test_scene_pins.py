@@ -42,9 +42,10 @@ def test_pins_cover_every_builtin_choice_and_fail_on_a_change():
     """Every builtin technique is chosen in some pin, and the comparison sees a changed default
     (negative control: the same check on a scene with one table value changed fails)."""
     chosen = {(k, p["to_dict"]["realtime"][k]) for p in PINS if "to_dict" in p for k in technique.EFFECT_KEYS}
-    # the pins predate the glTF material and its split sum (scene_model.ADDED_KEYS), which
+    # the pins predate the glTF material and its split sum, and wavelet PRT (scene_model.ADDED_KEYS), which
     # test_content_ids_of_scenes_using_added_keys covers
-    assert set(technique.pairs()) - {("glossy", "split_sum")} <= chosen
+    added = {("glossy", "split_sum")} | {(e, "wavelet_prt") for e in ("diffuse", "occlusion", "interreflection")}
+    assert set(technique.pairs()) - added <= chosen
     pin = next(p for p in PINS if "to_dict" in p and not p["overrides"])
     s = scene_model.load(f"builtin:{pin['scene']}").with_overrides({"realtime.prt.order": 3,
                                                                      "realtime.diffuse": "prt"})
@@ -66,3 +67,7 @@ def test_content_ids_of_scenes_using_added_keys():
     assert content["realtime"]["split_sum"]["recipe"] == "khronos"
     assert pbr.with_overrides({"realtime.split_sum.recipe": "filament"}).content_dict() != content
     assert pbr.with_overrides({"objects.0.material.roughness": 0.4}).content_dict() != content
+    assert "wavelet_prt" in paper.to_dict()["realtime"] and "wavelet_prt" not in paper.content_dict()["realtime"]
+    wavelet = paper.with_overrides({"realtime.diffuse": "wavelet_prt"})
+    assert wavelet.content_dict()["realtime"]["wavelet_prt"]["cube_size"] == 32
+    assert wavelet.with_overrides({"realtime.wavelet_prt.terms": 64}).content_dict() != wavelet.content_dict()
