@@ -455,6 +455,11 @@ def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx):
     assert (py[:, 3] == 1.0).all() and (ny[:, 3] == 1.0).all()
     assert np.all(py[:, :3] <= want * 1.002) and np.all(py[:, :3] >= want * 0.99 * 0.998), (py[:3], want)
     assert np.abs(ny[:, :3]).max() == 0.0
+    # the side faces (a_f in the plane) carry the full radiance: a cone reads faces with weights d_a^2, so
+    # the plane sends pi/2 (L + L_side) into its upper hemisphere, its exitance pi L only with L_side = L
+    for f in (0, 1, 4, 5):
+        side = layer[f].reshape(-1, 4)
+        assert np.all(side[:, :3] <= want * 1.002) and np.all(side[:, :3] >= want * 0.99 * 0.998), (f, side[:3])
     r = vs.probe(np.array([[0.0, 0.0, 0.0], [1.1, 0.0, -0.7]]), np.tile([0.0, 1.0, 0.0], (2, 1)))
     assert ((r[:, 3] >= 0.99) & (r[:, 3] <= 1.0 + 1e-6)).all(), r
     assert np.abs(r[:, :3]).max() <= 1e-4 * sky.max(), r
@@ -520,3 +525,40 @@ def test_thin_wall_leaks_under_one_percent(ctx, res):
     assert thin_wall_leak(ctx, objects, res) < 0.01
     roofless = [o for i, o in enumerate(objects) if i != 1]
     assert thin_wall_leak(ctx, roofless, res) > 0.05
+
+
+def phong_band_factors(N: float) -> np.ndarray:
+    """(N + 1) int_0^1 t^N P_l(t) dt for l = 0, 1, 2 (the normalised Phong lobe's SH band factors), by a
+    numerical quadrature written here (not the closed forms the shader uses)."""
+    t = np.linspace(0.0, 1.0, 200001)
+    legendre = [np.ones_like(t), t, 0.5 * (3 * t * t - 1)]
+    return np.array([(N + 1) * np.trapezoid(t ** N * p, t) for p in legendre])
+
+
+def test_glossy_plane_injects_its_phong_lobe_toward_each_face(ctx):
+    """A Phong plane (ks, N = 20) alone under the sky: its upper face holds what leaves toward +y,
+    ks times the environment's SH9 radiance convolved with the lobe around the mirror direction (+y), i.e.
+    ks sum_lm Lambda_l L_lm Y_lm(+y) with Lambda_l integrated here; its lower face is black. Control: the
+    diffuse treatment of the same plane (ks / pi E(+y)) differs from it by more than the tolerance."""
+    from scenes.environment.shbasis import sh9
+
+    scene = scenes.load("builtin:sphere-on-plane")
+    plane = scene.objects[1]
+    N, ks = 20.0, (0.9, 0.6, 0.3)
+    material = dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, ks=ks, exponent=N)
+    glossy = SimpleNamespace(mesh=plane.mesh, material=material)
+    env = sh_of(ctx, scene)
+    vs = voxels(ctx, [glossy], 32, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
+    coeffs, M = env.read_sh()
+    up = np.array([0.0, 1.0, 0.0])
+    lam = np.repeat(phong_band_factors(N), [1, 3, 5])
+    want = np.asarray(ks) * ((lam * sh9(up)) @ coeffs)
+    faces = vs.read_faces(0)[:, 0]
+    py, ny = faces[2, 8:24, 15, 8:24].reshape(-1, 4), faces[3, 8:24, 15, 8:24].reshape(-1, 4)
+    vs.release()
+    env.release()
+    assert np.all(py[:, :3] <= want * 1.002) and np.all(py[:, :3] >= want * 0.99 * 0.998), (py[:3], want)
+    assert np.abs(ny[:, :3]).max() == 0.0
+    n4 = np.append(up, 1.0)
+    diffuse = np.asarray(ks) / math.pi * np.array([n4 @ M[c] @ n4 for c in range(3)])
+    assert np.abs(diffuse / want - 1.0).max() > 0.02, (diffuse, want)

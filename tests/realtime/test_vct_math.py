@@ -207,11 +207,23 @@ def small(**ov):
     ("realtime.vct.cascades", 5, "[1, 4]"),
     ("realtime.vct.diffuse_cones", 5, "one of 4, 6, 9"),
     ("realtime.vct.diffuse_cones", 6.0, "one of 4, 6, 9"),
-    ("realtime.vct.step", 0.0, "(0, 4]")])
+    ("realtime.vct.step", 0.0, "(0, 4]"),
+    ("realtime.vct.bounces", 0, "[1, 4]"),
+    ("realtime.vct.bounces", 1.5, "[1, 4]")])
 def test_vct_table_values_are_checked_naming_the_key(key, value, allowed):
     with pytest.raises(SceneError) as err:
         small(**{"realtime.occlusion": "vct", key: value})
     assert key.split(".")[-1] in str(err.value) and allowed in str(err.value)
+
+
+def test_bounces_enter_the_content_id_only_when_set():
+    """`bounces` was added after result-row ids were pinned: at its default 1 a scene's content (and so every
+    earlier row's id) is unchanged; set to 2 it is part of it (control: the two contents then differ)."""
+    one = small(**{"realtime.occlusion": "vct"})
+    two = small(**{"realtime.occlusion": "vct", "realtime.vct.bounces": 2})
+    assert "bounces" not in one.content_dict()["realtime"]["vct"]
+    assert two.content_dict()["realtime"]["vct"]["bounces"] == 2
+    assert one.realtime.vct.bounces == 1
 
 
 def test_vct_combinations_and_unused_table():

@@ -73,26 +73,41 @@ INJECT_STEP_FACTOR = 1.0
 FACE_UNIT0 = 8
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
 BYTES_PER_VOXEL = 6 * 8  # six RGBA16F faces
-VOXEL_INTS = 28  # count, albedo rgb, 6 x (weight, weighted normal xyz)
+#: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
+VOXEL_INTS = 34
+FACE_INTS0 = 10
+TRIANGLE_VEC4 = 6  # p0, p1, p2, (normal, two_sided), (kd, f0), (ks, exponent); (schlick, 0, 0, 0) folded below
 ALBEDO_SCALE = 4096.0
 NORMAL_SCALE = 4096.0
-COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
-                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}")
+EXPONENT_SCALE = 16.0
+#: exponents beyond this are summed as this (int32 sums of 16 N over a voxel's triangles; at N = 4096 the SH9
+#: convolution's band factors N / (N + 3) are within 0.1 % of a mirror's 1)
+MAX_EXPONENT = 4096.0
+COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"FACE_INTS0 {FACE_INTS0}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
+                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}",
+                   f"EXPONENT_SCALE {EXPONENT_SCALE!r}")
 
 
-def albedo_of(material) -> np.ndarray:
+def reflectance_of(material) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    """(kd, ks, Phong exponent, f0, schlick) of the paper's reflectance as the injection evaluates it
+    (vct_inject.comp): L = (1 - F) kd / pi E + F ks L_glossy, F = f0 + schlick (1 - f0) (1 - n.v)^5.
+    diffuse: F = 0; phong: F = 1; blend: Schlick's F. glTF's pbr material re-emits as a diffuse surface of
+    albedo base_color (its lobe is not the Phong lobe the injection's SH convolution knows)."""
     kind = materials.of(material).name
     kd, ks = np.asarray(material.kd, dtype=np.float64), np.asarray(material.ks, dtype=np.float64)
+    exponent = min(float(material.exponent), MAX_EXPONENT)
     if kind == "diffuse":
-        return kd
+        return kd, np.zeros(3), exponent, 0.0, 0.0
     if kind == "phong":
-        return ks
-    f0 = float(material.f0)
-    return (1.0 - f0) * kd + f0 * ks
+        return np.zeros(3), ks, exponent, 1.0, 0.0
+    if kind == "blend":
+        return kd, ks, exponent, float(material.f0), 1.0
+    return np.asarray(material.base_color, dtype=np.float64), np.zeros(3), exponent, 0.0, 0.0
 
 
 def triangle_records(objects) -> np.ndarray:
-    """(T * 5, 4) float32: per triangle p0, p1, p2, (mean vertex normal, two_sided), (albedo, 0)."""
+    """(T * 6, 4) float32: per triangle p0, p1, p2, (mean vertex normal, two_sided), (kd, f0), (ks, exponent);
+    the Schlick flag rides in two_sided's sign bit of information: two_sided + 2 schlick."""
     out = []
     for obj in objects:
         mesh = obj.mesh
@@ -105,11 +120,13 @@ def triangle_records(objects) -> np.ndarray:
         length = np.linalg.norm(nn, axis=1, keepdims=True)
         nn = np.where(length > 1e-12, nn / np.maximum(length, 1e-12),
                       face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-30))
-        rec = np.zeros((len(idx), 5, 4))
+        rec = np.zeros((len(idx), TRIANGLE_VEC4, 4))
+        kd, ks, exponent, f0, schlick = reflectance_of(obj.material)
         rec[:, :3, :3] = tri
         rec[:, 3, :3] = nn
-        rec[:, 3, 3] = float(bool(obj.material.two_sided))
-        rec[:, 4, :3] = albedo_of(obj.material)
+        rec[:, 3, 3] = float(bool(obj.material.two_sided)) + 2.0 * schlick
+        rec[:, 4, :3], rec[:, 4, 3] = kd, f0
+        rec[:, 5, :3], rec[:, 5, 3] = ks, exponent
         out.append(rec.reshape(-1, 4))
     return np.concatenate(out).astype("f4")
 
@@ -136,7 +153,7 @@ class VoxelScene:
         self.grid = grid or vct_math.cascades_for(lo, hi, resolution, cascades)
         self.cones = vct_math.cone_set(diffuse_cones)
         records = triangle_records(objects)
-        self.triangle_count = len(records) // 5
+        self.triangle_count = len(records) // TRIANGLE_VEC4
         size = (resolution, resolution, resolution * cascades)
         limits.check_storage(ctx, records.nbytes, "objects", "the voxelizer's triangle list")
         limits.check_groups(ctx, (groups(self.triangle_count, 64),), "objects", "the voxelizer's dispatch")
@@ -374,7 +391,7 @@ def shared_voxels(frame: Frame) -> VoxelScene:
     if "vct" not in frame.shared:
         v = frame.scene.realtime.vct
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
-                                         v.diffuse_cones, v.step)
+                                         v.diffuse_cones, v.step, bounces=v.bounces)
     return frame.shared["vct"]
 
 
