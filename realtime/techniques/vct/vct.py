@@ -1,5 +1,5 @@
 """Voxel cone tracing through cascaded anisotropic voxel textures: `realtime.occlusion = "vct"`,
-`realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step`.
+`realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step, bounces`.
 
 The voxel scene (`VoxelScene`, one per frame in `frame.shared["vct"]`, made by whichever VCT technique
 asks first): `cascades` nested cubic grids of `resolution`^3 voxels, each twice the extent of the one
@@ -14,32 +14,35 @@ level isotropically; here it is six-face too, so that a thin wall's two sides st
 
 Every frame (timed `voxelize`, its mips as `mip`):
 1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
-   triangle/box test over its bounding box; integer atomics sum per voxel the count, the albedo and per
-   face direction a_f the weight max(0, n . a_f) and the weighted normal (the normal-weighted scheme:
-   the mean of a thin wall's normals would face nowhere);
+   triangle/box test over its bounding box; integer atomics sum per voxel the count, the reflectance
+   (kd, ks, exponent, f0, Schlick flag: `reflectance_of`) and per face direction a_f the weight
+   max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
+   would face nowhere);
 2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
-3. injection (inject = 1): each face's direct radiance (W_f / max_g W_g) albedo / pi E(n_f) V(n_f), E the
-   environment's SH9 irradiance (the scene's own when `diffuse = "sh"` with the paper's order; otherwise
-   the environment filter's SH9 of the same level), V the diffuse cones' visibility through the voxels
-   themselves (mips >= 1: level 0 is being written); then the radiance mips. `bounces` > 1 (VoxelScene
-   argument, for the energy test) re-injects with what the cones gather from the previous bounce.
-
-Albedo of a voxel: kd for diffuse, ks for phong (a glossy surface re-emits its energy as if diffuse:
-right in total, wrong in direction), (1 - f0) kd + f0 ks for blend.
+3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
+   (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
+   `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
+   the SH9 radiance convolved with the Phong lobe about the mirror direction r; V the diffuse cones'
+   visibility through the voxels themselves, mips >= 1: level 0 is being written). Faced faces carry the
+   full radiance, faces in the surface's plane the faced faces' mean (a thin two-sided wall's: the darker
+   side's), faces behind it none (vct_inject.comp derives each). Then the radiance mips. `bounces` = k
+   re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
 diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
 from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
-through the paper's reflectance. The cones start NORMAL_OFFSET_VOXELS along the normal and
+through the paper's reflectance. Cones read texels nearest (mip-linear), combine the axes' optical
+depths (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a
+medium's transmittance) and keep the opacity of the finer level whose texel is the step (vct_trace.glsl
+derives both: no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
 START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
 self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
-the level its cone's diameter gives, but never one whose trilinear, mip-linear lookup reaches the voxels of the
-surface it leaves (derived from the lookup: the coarser level's texel at most
-(height / |n|_1 - h0) / 1.5). The cap keeps a plane from reading itself (without it a plane sees 15% less
-sky than it should), but it binds for every diffuse cone of 4, 6 or 9 (their 2 tan(half-angle) >= 0.9
-exceeds the cap's at most 2/3 of the height all along a cone leaving a plane), so `diffuse_cones` sets
-their directions and weights, not their levels; narrower cones (the glossy one) keep their own width.
-An occluder on a capped cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py
+the level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it
+leaves (derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the
+nearest lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every
+diffuse cone of 4, 6 or 9, so `diffuse_cones` sets their directions and weights, not their levels;
+narrower cones (the glossy one) keep their own width. An occluder on a capped cone's axis reads as filling
+the whole cone, and a wall parallel to a cone blocks it once per texel (tests/realtime/test_vct_gpu.py
 measures the over-occlusion under a sphere). The cones' cost is inside `draw`; E10 reports `trace` as
 draw minus the same scene's direct-only draw.
 """
