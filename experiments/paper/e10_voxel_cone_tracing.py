@@ -3,16 +3,21 @@
 On cornell-open, bowl-diffuse and torus-phong, against the same path-traced references, `psnr_unbiased`
 against the frame's milliseconds for
 (a) direct only (the paper), (b) + VCT occlusion, (c) + VCT occlusion + interreflection,
-over `[realtime.vct]` resolution x cascades x diffuse cones (QUICK: a subset that fits the time limit).
+over `[realtime.vct]` resolution x cascades x diffuse cones (QUICK: a subset that fits the time limit);
+beside them on the same accuracy-time axes, the other ways to shadows and bounces (E8's override helpers):
+PRT of order 4 with one bounce (diffuse scenes) and a geodesic light array with shadow maps.
 Per configuration: the voxel memory (six RGBA16F faces with their mips, every cascade) against a single
 3D texture with the same finest voxel over the same extent; `trace` = the shading pass's ms minus the
 direct-only pass's (the cones run inside `draw`).
 
-At the best configuration of each scene: the reference at max_depth 2 (direct light with occlusion, no
-bounce), 3 (one bounce) and full depth, in linear radiance over the covered pixels: the indirect energy
-ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and how much of the error the first bounce explains.
+Energy, in linear radiance over the covered pixels against the path tracer at max_depth 2 (direct light with
+occlusion), 3, 4, 5 (one, two, three bounces): at each resolution (the best setting's cascades and cones) the
+indirect energy ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and at the best setting the same for
+`[realtime.vct] bounces` 1, 2, 3 against depth 2 + bounces.
 The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the irradiance the cones find
-just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak).
+just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak), at every
+resolution, at the grid's own placement and over placements shifted by fractions of a voxel (the leak
+depends on where the walls fall in the coarse texels).
 """
 
 from __future__ import annotations
@@ -27,6 +32,7 @@ import scenes
 from experiments.measure import convergence
 from experiments.measure.results import ResultRow
 from experiments.paper.context import Context
+from experiments.paper.e08_occlusion import lights_ov, prt_ov
 from experiments.publish import plots, report
 from experiments.publish.plots import frame_ms
 from experiments.publish.report import Section, f2, f3, f4, unbiased_cell
@@ -47,15 +53,25 @@ SCENES = (("cornell-open", "builtin:cornell-open"), ("bowl-diffuse", "builtin:bo
 class Settings:
     grid: tuple[tuple[int, int, int], ...]  # (resolution, cascades, diffuse cones)
     frames: int
-    depths: tuple[int, ...]  # reference max_depth values for the energy split (full depth is the row's own)
+    bounces: tuple[int, ...]  # [realtime.vct] bounces of the energy table, against path depth 2 + bounces
+    energy_resolutions: tuple[int, ...]  # the energy table's resolutions (the best setting's cascades, cones)
+    leak_resolutions: tuple[int, ...]
+    leak_offsets: int  # grid placements of the thin-wall leak (the first is the grid's own)
+    ladder: bool  # PRT and light-array rows beside VCT's
 
 
-QUICK = Settings(grid=((32, 1, 6), (64, 1, 6), (32, 2, 6), (64, 2, 6), (64, 2, 4), (64, 2, 9)), frames=1,
-                    depths=(2, 3))
-# the subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 x 3 cascades takes
-# about 10 s a frame on llvmpipe): every resolution x cascades at the seed's 6 cones, and 4 and 9 cones at 64^3 x 2
-FULL = Settings(grid=tuple((r, c, 6) for r in (32, 64, 128) for c in (1, 2, 3)) + ((64, 2, 4), (64, 2, 9)),
-                   frames=3, depths=(2, 3))
+QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy_resolutions=(32, 64),
+                 leak_resolutions=(32, 64), leak_offsets=2, ladder=True)
+# a subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 takes about 15 s a
+# frame on llvmpipe, its injection most of it): every resolution at one cascade, 2 and 3 cascades at 64^3, and 4
+# and 9 cones at 64^3 x 2; one timed frame after one warm-up frame
+FULL = Settings(grid=((32, 1, 6), (64, 1, 6), (128, 1, 6), (64, 2, 6), (64, 3, 6), (64, 2, 4), (64, 2, 9)),
+                frames=1, bounces=(1, 2, 3), energy_resolutions=(32, 64, 128), leak_resolutions=(32, 64, 128),
+                leak_offsets=5, ladder=True)
+#: the ladder's rows: PRT of order 4, 256 rays, one bounce (diffuse scenes only: PRT transfers diffuse light);
+#: 42 geodesic lights with 1024^2 shadow maps
+PRT_LADDER = (4, 256, 1)
+LIGHTS_LADDER = ("geodesic", 42, 1024)
 
 
 def vct_ov(resolution: int, cascades: int, cones: int, interreflection: bool) -> dict:
@@ -66,22 +82,37 @@ def vct_ov(resolution: int, cascades: int, cones: int, interreflection: bool) ->
     return ov
 
 
-def configs(s: Settings) -> list[dict]:
-    return [{}] + [vct_ov(r, c, k, inter) for r, c, k in s.grid for inter in (False, True)]
+def ladder_ov(spec: str) -> list[dict]:
+    """The other techniques' rows of a scene: PRT with a bounce where it has diffuse light, the light array
+    with shadow maps."""
+    scene = scenes.load(spec)
+    out = []
+    if "diffuse" in scene.effects:
+        out.append(prt_ov(*PRT_LADDER))
+    out.append(lights_ov(scene, *LIGHTS_LADDER))
+    return out
+
+
+def configs(s: Settings, spec: str) -> list[dict]:
+    vct_rows = [vct_ov(r, c, k, inter) for r, c, k in s.grid for inter in (False, True)]
+    return [{}] + vct_rows + (ladder_ov(spec) if s.ladder else [])
 
 
 def count_steps(settings: Settings) -> int:
-    """Progress steps of `run`: per scene its spp ladder, one per row and the energy split; the leak."""
-    s = settings
-    return len(SCENES) * (len(configs(s)) + 2) + 1  # per scene: the curve, the rows, the energy split; the leak
+    """Progress steps of `run`: per scene its spp ladder, one per row and the energy tables; the leak."""
+    return sum(len(configs(settings, spec)) + 2 for _, spec in SCENES) + 1
 
 
-#: the three configurations of every scene, in the order of the figures
-MODES = ("direct (paper)", "occlusion", "occlusion + interreflection")
+#: the configurations of every scene, in the order of the figures
+MODES = ("direct (paper)", "occlusion", "occlusion + interreflection", "PRT + bounce", "light array + shadow maps")
 
 
 def mode(r: ResultRow) -> str:
     t = r.techniques
+    if t.get("diffuse") == "prt":
+        return "PRT + bounce"
+    if t.get("occlusion") == "shadow_maps":
+        return "light array + shadow maps"
     if t.get("interreflection") == "vct":
         return "occlusion + interreflection"
     if t.get("occlusion") == "vct":
@@ -107,43 +138,76 @@ def mib(b: float) -> str:
     return f"{b / 2**20:.1f}"
 
 
-def energy_split(context: Context, spec: str, best: dict, depths: tuple[int, ...]) -> dict:
+def linear_mean(img, mask) -> float:
+    return float(img.rgb[mask].mean())
+
+
+def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
     """Linear radiance means over the pixels covered in every image: the real-time occlusion-only and
-    occlusion + interreflection images of the best setting, the path tracer at each max_depth and full."""
+    occlusion + interreflection images at each resolution of `s.energy_resolutions` (the best setting's
+    cascades and cones) and, at the best setting, for each of `s.bounces`; the path tracer at max_depth 2
+    (direct with occlusion), 2 + each bounce count, and full depth."""
     base = {**context.base(), "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
     scene = scenes.load(spec).with_overrides(base)
     occ_ov = {k: v for k, v in best.items() if k != "realtime.interreflection"}
+    cascades, cones = occ_ov["realtime.vct.cascades"], occ_ov["realtime.vct.diffuse_cones"]
+    renders = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        rt_occ = realtime.render(scene.with_overrides(occ_ov))
-        rt_all = realtime.render(scene.with_overrides({**occ_ov, "realtime.interreflection": "vct"}))
-        rt_direct = realtime.render(scene)
+        renders["direct"] = realtime.render(scene)
+        for res in s.energy_resolutions:
+            ov = vct_ov(res, cascades, cones, False)
+            renders[("occ", res)] = realtime.render(scene.with_overrides(ov))
+            renders[("all", res, 1)] = realtime.render(scene.with_overrides({**ov, "realtime.interreflection": "vct"}))
+        best_res = occ_ov["realtime.vct.resolution"]
+        if ("occ", best_res) not in renders:
+            renders[("occ", best_res)] = realtime.render(scene.with_overrides(occ_ov))
+        for b in s.bounces:
+            if ("all", best_res, b) not in renders:
+                renders[("all", best_res, b)] = realtime.render(scene.with_overrides(
+                    {**occ_ov, "realtime.interreflection": "vct", "realtime.vct.bounces": b}))
+    depths = sorted({2} | {2 + b for b in s.bounces})
     refs = {d: reference.render(scene.with_overrides({"reference.integrator": "path", "reference.max_depth": d}))
             for d in depths}
     refs["full"] = reference.render(scene)
-    mask = rt_occ.mask & rt_all.mask & rt_direct.mask
-    for r in refs.values():
+    mask = np.ones_like(refs["full"].mask)
+    for r in [*renders.values(), *refs.values()]:
         mask = mask & r.mask
+    path = {d: linear_mean(r, mask) for d, r in refs.items()}
 
-    def mean(img) -> float:
-        return float(img.rgb[mask].mean())
+    def ratio(a: float, b: float) -> float | None:
+        return a / b if abs(b) > 1e-9 else None
 
-    out = {"direct": mean(rt_direct), "occlusion": mean(rt_occ), "interreflection": mean(rt_all),
-           **{f"path_depth_{k}": mean(v) for k, v in refs.items()}}
-    lo, hi = min(depths), (3 if 3 in depths else max(depths))
-    ref_bounce = out[f"path_depth_{hi}"] - out[f"path_depth_{lo}"]
-    out["indirect_vct"] = out["interreflection"] - out["occlusion"]
-    out["indirect_path_one_bounce"] = ref_bounce
-    out["indirect_path_all"] = out["path_depth_full"] - out[f"path_depth_{lo}"]
-    out["indirect_ratio"] = out["indirect_vct"] / ref_bounce if abs(ref_bounce) > 1e-9 else None
-    out["occluded_ratio"] = out["occlusion"] / out[f"path_depth_{lo}"] if out[f"path_depth_{lo}"] > 0 else None
-    return out
+    by_resolution = []
+    for res in s.energy_resolutions:
+        occ, inter = linear_mean(renders[("occ", res)], mask), linear_mean(renders[("all", res, 1)], mask)
+        by_resolution.append({"resolution": res, "occlusion": occ, "interreflection": inter,
+                              "indirect_vct": inter - occ, "indirect_ratio": ratio(inter - occ, path[3] - path[2]),
+                              "occluded_ratio": ratio(occ, path[2])})
+    occ_best = linear_mean(renders[("occ", best_res)], mask)
+    by_bounces = []
+    for b in s.bounces:
+        inter = linear_mean(renders[("all", best_res, b)], mask)
+        by_bounces.append({"bounces": b, "interreflection": inter, "indirect_vct": inter - occ_best,
+                           "indirect_path": path[2 + b] - path[2],
+                           "indirect_ratio": ratio(inter - occ_best, path[2 + b] - path[2])})
+    one = next(x for x in by_bounces if x["bounces"] == 1) if 1 in s.bounces else by_resolution[-1]
+    return {"direct": linear_mean(renders["direct"], mask), "occlusion": occ_best,
+            "interreflection": one["interreflection"], "path": path, "cascades": cascades, "cones": cones,
+            "by_resolution": by_resolution, "by_bounces": by_bounces,
+            "indirect_vct": one["indirect_vct"], "indirect_path_one_bounce": path[3] - path[2],
+            "indirect_path_all": path["full"] - path[2],
+            "indirect_ratio": ratio(one["indirect_vct"], path[3] - path[2]),
+            "occluded_ratio": ratio(occ_best, path[2])}
 
 
-def thin_wall_leak(resolutions=(32, 64), cascades: int = 1) -> list[dict]:
+def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1) -> list[dict]:
     """The thin-wall scene's leak: the irradiance the cones find (environment x visibility + gathered) on
     the ground inside the closed box (walls of zero thickness: one voxel once voxelised; exactly 0 in the
-    path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe)."""
+    path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe).
+    At each resolution: the grid's own placement, then `offsets` - 1 placements shifted by the fractions
+    k / offsets of (4.37, 2.9, 4.37) voxels (incommensurate with the box, so the walls fall at other places
+    in the coarse texels): the leak at the own placement, the mean and the largest over all."""
     ctx = get_context()
     scene = scenes.load("builtin:thin-wall")
     xs = np.linspace(-0.3, 0.3, 4)
@@ -151,26 +215,36 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1) -> list[dict]:
     ring = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
     outside = np.stack([1.2 * np.cos(ring), np.zeros_like(ring), 1.2 * np.sin(ring)], -1)
     up = np.array([0.0, 1.0, 0.0])
+    lo, hi = vct.scene_bounds(scene.objects)
+    env = environment_store(ctx, scene)
+    env.fill_base(scene.environment.rotation_deg)
+    env.build_chain(None)
+    env.project_sh(64)
+    _, M = env.read_sh()
+    n4 = np.append(up, 1.0)
+    sky = np.array([n4 @ M[c] @ n4 for c in range(3)])  # the unoccluded SH9 irradiance facing up
     out = []
     for res in resolutions:
-        env = environment_store(ctx, scene)
-        env.fill_base(scene.environment.rotation_deg)
-        env.build_chain(None)
-        env.project_sh(64)
-        vs = VoxelScene(ctx, scene.objects, res, cascades, 6, 0.5)
-        vs.update(None, env.sh_buffer)
-        _, M = env.read_sh()
-        n4 = np.append(up, 1.0)
-        sky = np.array([n4 @ M[c] @ n4 for c in range(3)])  # the unoccluded SH9 irradiance facing up
-        r_in = vs.probe(inside, np.tile(up, (len(inside), 1)))
-        r_out = vs.probe(outside, np.tile(up, (len(outside), 1)))
-        e_in = (sky * r_in[:, 3:4] + r_in[:, :3]).mean()
-        e_out = (sky * r_out[:, 3:4] + r_out[:, :3]).mean()
-        out.append({"resolution": res, "cascades": cascades, "voxel": vs.grid.voxel_size, "inside": float(e_in),
-                    "outside": float(e_out), "leak": float(e_in / max(e_out, 1e-12)),
-                    "visibility_inside": float(r_in[:, 3].mean()), "visibility_outside": float(r_out[:, 3].mean())})
-        vs.release()
-        env.release()
+        own = vct_math.cascades_for(lo, hi, res, cascades)
+        leaks, first = [], None
+        for k in range(offsets):
+            shift = np.array([4.37, 2.9, 4.37]) * own.voxel_size * k / offsets
+            grid = vct_math.Cascades(tuple(float(c) for c in np.asarray(own.centre) + shift), own.half_extent,
+                                     res, cascades)
+            vs = VoxelScene(ctx, scene.objects, res, cascades, 6, 0.5, grid=grid)
+            vs.update(None, env.sh_buffer)
+            r_in = vs.probe(inside, np.tile(up, (len(inside), 1)))
+            r_out = vs.probe(outside, np.tile(up, (len(outside), 1)))
+            vs.release()
+            e_in = (sky * r_in[:, 3:4] + r_in[:, :3]).mean()
+            e_out = (sky * r_out[:, 3:4] + r_out[:, :3]).mean()
+            leaks.append(float(e_in / max(e_out, 1e-12)))
+            if first is None:
+                first = {"inside": float(e_in), "outside": float(e_out), "visibility_inside": float(r_in[:, 3].mean()),
+                         "visibility_outside": float(r_out[:, 3].mean())}
+        out.append({"resolution": res, "cascades": cascades, "voxel": own.voxel_size, **first, "leak": leaks[0],
+                    "leak_mean": float(np.mean(leaks)), "leak_max": float(np.max(leaks)), "placements": offsets})
+    env.release()
     return out
 
 
@@ -184,13 +258,13 @@ def run(context: Context, settings: Settings) -> Section:
         scene = scenes.load(spec).with_overrides(context.base())
         curve = convergence.curve(scene, max_spp=context.common.spp)
         context.progress()
-        rows = [context.row(spec, {**timing, **c}, "E10", curve=curve) for c in configs(s)]
+        rows = [context.row(spec, {**timing, **c}, "E10", curve=curve) for c in configs(s, spec)]
         per_scene[name] = (rows, curve)
         b = best(rows, "occlusion + interreflection")
-        energy[name] = energy_split(context, spec, b.overrides if b else vct_ov(64, 2, 6, True), s.depths) | {
+        energy[name] = energy_split(context, spec, b.overrides if b else vct_ov(64, 2, 6, True), s) | {
             "setting": setting(b) if b else None}
         context.progress()
-    leak = thin_wall_leak()
+    leak = thin_wall_leak(s.leak_resolutions, offsets=s.leak_offsets)
     context.progress()
     figure, heat = "figures/e10_vct.png", "figures/e10_heat.png"
     plot(per_scene, context.out / figure)
@@ -214,12 +288,23 @@ def run(context: Context, settings: Settings) -> Section:
     e_header = ["scene", "best setting", "direct", "VCT occlusion", "VCT occl. + interr.", "path depth 2",
                 "path depth 3", "path full", "indirect VCT / path one bounce", "VCT occlusion / path depth 2"]
     e_rows = [[name, "x".join(map(str, e["setting"])) if e["setting"] else "-", f4(e["direct"]), f4(e["occlusion"]),
-               f4(e["interreflection"]), f4(e["path_depth_2"]), f4(e.get("path_depth_3")), f4(e["path_depth_full"]),
+               f4(e["interreflection"]), f4(e["path"][2]), f4(e["path"].get(3)), f4(e["path"]["full"]),
                f3(e["indirect_ratio"]), f3(e["occluded_ratio"])] for name, e in energy.items()]
+    r_header = ["scene", "resolution", "cascades", "cones", "VCT indirect (1 bounce)", "path one bounce",
+                "indirect VCT / path", "VCT occlusion / path depth 2"]
+    r_rows = [[name, str(x["resolution"]), str(e["cascades"]), str(e["cones"]), f4(x["indirect_vct"]),
+               f4(e["indirect_path_one_bounce"]), f3(x["indirect_ratio"]), f3(x["occluded_ratio"])]
+              for name, e in energy.items() for x in e["by_resolution"]]
+    b_header = ["scene", "best setting", "bounces", "VCT indirect", "path indirect (depth 2 + bounces - depth 2)",
+                "indirect VCT / path"]
+    b_rows = [[name, "x".join(map(str, e["setting"])) if e["setting"] else "-", str(x["bounces"]),
+               f4(x["indirect_vct"]), f4(x["indirect_path"]), f3(x["indirect_ratio"])]
+              for name, e in energy.items() for x in e["by_bounces"]]
     l_header = ["resolution", "cascades", "voxel", "irradiance inside", "outside", "leak (inside / outside)",
-                "visibility inside", "visibility outside"]
+                "leak mean over placements", "leak max over placements", "visibility inside", "visibility outside"]
     l_rows = [[str(x["resolution"]), str(x["cascades"]), f"{x['voxel']:.4f}", f4(x["inside"]), f4(x["outside"]),
-               f"{100 * x['leak']:.2f} %", f3(x["visibility_inside"]), f3(x["visibility_outside"])] for x in leak]
+               f"{100 * x['leak']:.2f} %", f"{100 * x['leak_mean']:.2f} %", f"{100 * x['leak_max']:.2f} %",
+               f3(x["visibility_inside"]), f3(x["visibility_outside"])] for x in leak]
     findings = summarize(per_scene, energy, leak)
     note = ("Frame ms: medians over the timed frames of every per-frame part: the environment (`filter`), the "
             "voxelisation with the cone-traced injection (`voxelize`), the six-face mips (`mip`) and the shading "
@@ -227,14 +312,19 @@ def run(context: Context, settings: Settings) -> Section:
             "direct-only pass (the cones run inside `draw`). Voxel MiB: six RGBA16F faces (48 bytes a voxel) with "
             "their mip chains for every cascade, against one 3D texture with the finest voxel over the outermost "
             "extent. Mean radiances are linear, over the pixels covered in every image; path depth 2 is direct "
-            "light with occlusion, depth 3 adds one bounce. The leak: the irradiance the diffuse cones find on the "
-            "ground inside a closed box with walls of zero thickness (one voxel once voxelised; the path tracer's "
-            "is 0) over the irradiance on the ground outside it.")
+            "light with occlusion, depth 2 + k adds k bounces; VCT's k bounces are `[realtime.vct] bounces = k` "
+            "(k - 1 gathered bounces re-injected into the voxels). The leak: the irradiance the diffuse cones "
+            "find on the ground inside a closed box with walls of zero thickness (one voxel once voxelised; the "
+            "path tracer's is 0) over the irradiance on the ground outside it, at the grid's own placement and "
+            f"over {s.leak_offsets} placements shifted by fractions of a voxel. The ladder rows: PRT of order "
+            f"{PRT_LADDER[0]}, {PRT_LADDER[1]} rays, {PRT_LADDER[2]} bounce (diffuse scenes), and "
+            f"{LIGHTS_LADDER[1]} {LIGHTS_LADDER[0]} lights with {LIGHTS_LADDER[2]}^2 shadow maps.")
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
-          + report.md_table(e_header, e_rows) + "\n\n" + report.md_table(l_header, l_rows) + "\n\n" + note)
+          + report.md_table(e_header, e_rows) + "\n\n" + report.md_table(r_header, r_rows) + "\n\n"
+          + report.md_table(b_header, b_rows) + "\n\n" + report.md_table(l_header, l_rows) + "\n\n" + note)
     blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E10"),
-              report.figure(heat, "E10 heat maps"), report.table(e_header, e_rows), report.table(l_header, l_rows),
-              report.paragraph(note)]
+              report.figure(heat, "E10 heat maps"), report.table(e_header, e_rows), report.table(r_header, r_rows),
+              report.table(b_header, b_rows), report.table(l_header, l_rows), report.paragraph(note)]
     return Section(TITLE, blocks, md, [figure, heat])
 
 
@@ -258,10 +348,15 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
         if e:
             out.append(f"{name}: indirect energy VCT / path one bounce = {f3(e['indirect_ratio'])} "
                        f"(VCT {e['indirect_vct']:.4f}, path {e['indirect_path_one_bounce']:.4f}, all bounces "
-                       f"{e['indirect_path_all']:.4f}); VCT occlusion / path depth 2 = {f3(e['occluded_ratio'])}.")
+                       f"{e['indirect_path_all']:.4f}); VCT occlusion / path depth 2 = {f3(e['occluded_ratio'])}; "
+                       "by resolution " + ", ".join(f"{x['resolution']}^3 {f3(x['indirect_ratio'])}"
+                                                    for x in e["by_resolution"])
+                       + "; by bounces " + ", ".join(f"{x['bounces']}: {f3(x['indirect_ratio'])}"
+                                                      for x in e["by_bounces"]) + ".")
     for x in leak:
         out.append(f"thin wall at {x['resolution']}^3 (voxel {x['voxel']:.4f}): {100 * x['leak']:.2f} % of the lit "
-                   f"side's irradiance leaks inside (target at most 1 %).")
+                   f"side's irradiance leaks inside (mean {100 * x['leak_mean']:.2f} %, at most "
+                   f"{100 * x['leak_max']:.2f} % over {x['placements']} grid placements; target at most 1 %).")
     return out
 
 
@@ -272,7 +367,7 @@ def plot(per_scene: dict, path) -> None:
     n = len(per_scene)
     fig, axes = plt.subplots(1, n, figsize=(5.2 * n, 4.4), squeeze=False)
     for ax, (name, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=True):
-        pts = plots.scatter_families(ax, rows, mode, markers="osD", order=MODES)
+        pts = plots.scatter_families(ax, rows, mode, markers="osD^v", order=MODES)
         for r in pts:
             st = setting(r)
             if st:

@@ -288,6 +288,10 @@ class Scene:
             used = self.realtime.renderer != "opengl" if key == "renderer" else users.get(key) is not None
             if not used:
                 d["realtime"].pop(key, None)
+        for table, keys in ADDED_TABLE_KEYS.items():  # a key added inside a table: absent while at its default
+            for key, default in keys.items():
+                if d["realtime"].get(table, {}).get(key, default) == default:
+                    d["realtime"].get(table, {}).pop(key, None)
         return d
 
 
@@ -426,6 +430,9 @@ ADDED_KEYS = {
     "material": ("base_color", "metallic", "roughness"),
     "realtime": ("split_sum", "renderer", "command", "wavelet_prt"),
 }
+#: keys added to a technique's table after the ids were pinned, with their defaults: they enter a row's id only
+#: where the scene sets them to something else
+ADDED_TABLE_KEYS = {"vct": {"bounces": 1}}
 
 
 class _Schema(Mapping):

@@ -8,25 +8,29 @@ import pytest
 from experiments.paper import e10_voxel_cone_tracing as e10
 
 
-def test_configs_are_direct_then_occlusion_and_interreflection_per_setting():
-    cs = e10.configs(e10.QUICK)
-    assert cs[0] == {}
-    assert len(cs) == 1 + 2 * len(e10.QUICK.grid)
-    for a, b in zip(cs[1::2], cs[2::2], strict=True):
-        assert a["realtime.occlusion"] == "vct" and "realtime.interreflection" not in a
-        assert b == {**a, "realtime.interreflection": "vct"}
-    # every configuration is a valid scene
+@pytest.mark.parametrize("spec", [spec for _, spec in e10.SCENES])
+def test_configs_are_direct_then_occlusion_and_interreflection_per_setting_then_the_ladder(spec):
     import scenes
 
-    for _, spec in e10.SCENES:
-        for c in cs:
-            scenes.load(spec).with_overrides(c)
+    cs = e10.configs(e10.QUICK, spec)
+    assert cs[0] == {}
+    n = 2 * len(e10.QUICK.grid)
+    vct_rows, ladder = cs[1:1 + n], cs[1 + n:]
+    for a, b in zip(vct_rows[0::2], vct_rows[1::2], strict=True):
+        assert a["realtime.occlusion"] == "vct" and "realtime.interreflection" not in a
+        assert b == {**a, "realtime.interreflection": "vct"}
+    # the ladder: PRT with a bounce where the scene has diffuse light, the light array with shadow maps always
+    diffuse = "diffuse" in scenes.load(spec).effects
+    assert [c.get("realtime.diffuse") == "prt" for c in ladder] == ([True] if diffuse else []) + [False]
+    assert ladder[-1]["realtime.occlusion"] == "shadow_maps"
+    for c in cs:  # every configuration is a valid scene
+        scenes.load(spec).with_overrides(c)
 
 
 def test_count_steps_matches_the_progress_calls():
     s = e10.QUICK
-    # per scene: the convergence curve, one row per configuration, the energy split; then the leak
-    assert e10.count_steps(e10.QUICK) == len(e10.SCENES) * (1 + len(e10.configs(s)) + 1) + 1
+    # per scene: the convergence curve, one row per configuration, the energy tables; then the leak
+    assert e10.count_steps(s) == sum(1 + len(e10.configs(s, spec)) + 1 for _, spec in e10.SCENES) + 1
 
 
 def test_memory_cascades_against_one_texture():
@@ -38,7 +42,8 @@ def test_memory_cascades_against_one_texture():
 
 @pytest.mark.gl
 def test_thin_wall_leak_is_measured():
-    (x,) = e10.thin_wall_leak((16,))
+    (x,) = e10.thin_wall_leak((16,), offsets=2)
     assert x["outside"] > 0 and 0 <= x["inside"] < x["outside"]
     assert x["leak"] == pytest.approx(x["inside"] / x["outside"])
+    assert min(x["leak"], x["leak_mean"]) <= x["leak_mean"] <= x["leak_max"] and x["placements"] == 2
     assert x["visibility_inside"] < x["visibility_outside"]

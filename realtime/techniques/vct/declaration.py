@@ -16,6 +16,7 @@ class Vct:
     cascades: int = param(3, number(1, 4, integer=True))
     diffuse_cones: int = param(6, int_choice(4, 6, 9))
     step: float = param(0.5, number(0, 4, lo_open=True))
+    bounces: int = param(1, number(1, 4, integer=True))
 
 
 def validate(rt, given: dict, where: str) -> None:
@@ -25,7 +26,12 @@ def validate(rt, given: dict, where: str) -> None:
 
 
 def describe(rt) -> dict:
-    return {"vct": asdict(rt.vct)}
+    """The table as set; `bounces` (added later) only where it is not its default 1, so that rows described
+    before it existed describe alike."""
+    table = asdict(rt.vct)
+    if table["bounces"] == 1:
+        del table["bounces"]
+    return {"vct": table}
 
 
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
@@ -36,7 +42,7 @@ DECLARATIONS = (
         **_COMMON, effect="occlusion", name="vct", rank=30, simulates=frozenset({"occlusion"}),
         implementation="realtime.techniques.vct.vct:VctOcclusion",
         reads=("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones",
-               "realtime.vct.step"),
+               "realtime.vct.step", "realtime.vct.bounces"),
         axes={"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
               "realtime.vct.diffuse_cones": (4, 6, 9)},
         validate=validate,

@@ -1,5 +1,5 @@
 """Voxel cone tracing through cascaded anisotropic voxel textures: `realtime.occlusion = "vct"`,
-`realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step`.
+`realtime.interreflection = "vct"`, `[realtime.vct] resolution, cascades, diffuse_cones, step, bounces`.
 
 The voxel scene (`VoxelScene`, one per frame in `frame.shared["vct"]`, made by whichever VCT technique
 asks first): `cascades` nested cubic grids of `resolution`^3 voxels, each twice the extent of the one
@@ -14,32 +14,35 @@ level isotropically; here it is six-face too, so that a thin wall's two sides st
 
 Every frame (timed `voxelize`, its mips as `mip`):
 1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
-   triangle/box test over its bounding box; integer atomics sum per voxel the count, the albedo and per
-   face direction a_f the weight max(0, n . a_f) and the weighted normal (the normal-weighted scheme:
-   the mean of a thin wall's normals would face nowhere);
+   triangle/box test over its bounding box; integer atomics sum per voxel the count, the reflectance
+   (kd, ks, exponent, f0, Schlick flag: `reflectance_of`) and per face direction a_f the weight
+   max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
+   would face nowhere);
 2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
-3. injection (inject = 1): each face's direct radiance (W_f / max_g W_g) albedo / pi E(n_f) V(n_f), E the
-   environment's SH9 irradiance (the scene's own when `diffuse = "sh"` with the paper's order; otherwise
-   the environment filter's SH9 of the same level), V the diffuse cones' visibility through the voxels
-   themselves (mips >= 1: level 0 is being written); then the radiance mips. `bounces` > 1 (VoxelScene
-   argument, for the energy test) re-injects with what the cones gather from the previous bounce.
-
-Albedo of a voxel: kd for diffuse, ks for phong (a glossy surface re-emits its energy as if diffuse:
-right in total, wrong in direction), (1 - f0) kd + f0 ks for blend.
+3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
+   (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
+   `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
+   the SH9 radiance convolved with the Phong lobe about the mirror direction r; V the diffuse cones'
+   visibility through the voxels themselves, mips >= 1: level 0 is being written). Faced faces carry the
+   full radiance, faces in the surface's plane the faced faces' mean (a thin two-sided wall's: the darker
+   side's), faces behind it none (vct_inject.comp derives each). Then the radiance mips. `bounces` = k
+   re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
 diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
 from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
-through the paper's reflectance. The cones start NORMAL_OFFSET_VOXELS along the normal and
+through the paper's reflectance. Cones read texels nearest (mip-linear), combine the axes' optical
+depths (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a
+medium's transmittance) and keep the opacity of the finer level whose texel is the step (vct_trace.glsl
+derives both: no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
 START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
 self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
-the level its cone's diameter gives, but never one whose trilinear, mip-linear lookup reaches the voxels of the
-surface it leaves (derived from the lookup: the coarser level's texel at most
-(height / |n|_1 - h0) / 1.5). The cap keeps a plane from reading itself (without it a plane sees 15% less
-sky than it should), but it binds for every diffuse cone of 4, 6 or 9 (their 2 tan(half-angle) >= 0.9
-exceeds the cap's at most 2/3 of the height all along a cone leaving a plane), so `diffuse_cones` sets
-their directions and weights, not their levels; narrower cones (the glossy one) keep their own width.
-An occluder on a capped cone's axis reads as filling the whole cone (tests/realtime/test_vct_gpu.py
+the level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it
+leaves (derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the
+nearest lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every
+diffuse cone of 4, 6 or 9, so `diffuse_cones` sets their directions and weights, not their levels;
+narrower cones (the glossy one) keep their own width. An occluder on a capped cone's axis reads as filling
+the whole cone, and a wall parallel to a cone blocks it once per texel (tests/realtime/test_vct_gpu.py
 measures the over-occlusion under a sphere). The cones' cost is inside `draw`; E10 reports `trace` as
 draw minus the same scene's direct-only draw.
 """
@@ -73,26 +76,41 @@ INJECT_STEP_FACTOR = 1.0
 FACE_UNIT0 = 8
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
 BYTES_PER_VOXEL = 6 * 8  # six RGBA16F faces
-VOXEL_INTS = 28  # count, albedo rgb, 6 x (weight, weighted normal xyz)
+#: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
+VOXEL_INTS = 34
+FACE_INTS0 = 10
+TRIANGLE_VEC4 = 6  # p0, p1, p2, (normal, two_sided), (kd, f0), (ks, exponent); (schlick, 0, 0, 0) folded below
 ALBEDO_SCALE = 4096.0
 NORMAL_SCALE = 4096.0
-COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
-                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}")
+EXPONENT_SCALE = 16.0
+#: exponents beyond this are summed as this (int32 sums of 16 N over a voxel's triangles; at N = 4096 the SH9
+#: convolution's band factors N / (N + 3) are within 0.1 % of a mirror's 1)
+MAX_EXPONENT = 4096.0
+COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"FACE_INTS0 {FACE_INTS0}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
+                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}",
+                   f"EXPONENT_SCALE {EXPONENT_SCALE!r}")
 
 
-def albedo_of(material) -> np.ndarray:
+def reflectance_of(material) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    """(kd, ks, Phong exponent, f0, schlick) of the paper's reflectance as the injection evaluates it
+    (vct_inject.comp): L = (1 - F) kd / pi E + F ks L_glossy, F = f0 + schlick (1 - f0) (1 - n.v)^5.
+    diffuse: F = 0; phong: F = 1; blend: Schlick's F. glTF's pbr material re-emits as a diffuse surface of
+    albedo base_color (its lobe is not the Phong lobe the injection's SH convolution knows)."""
     kind = materials.of(material).name
     kd, ks = np.asarray(material.kd, dtype=np.float64), np.asarray(material.ks, dtype=np.float64)
+    exponent = min(float(material.exponent), MAX_EXPONENT)
     if kind == "diffuse":
-        return kd
+        return kd, np.zeros(3), exponent, 0.0, 0.0
     if kind == "phong":
-        return ks
-    f0 = float(material.f0)
-    return (1.0 - f0) * kd + f0 * ks
+        return np.zeros(3), ks, exponent, 1.0, 0.0
+    if kind == "blend":
+        return kd, ks, exponent, float(material.f0), 1.0
+    return np.asarray(material.base_color, dtype=np.float64), np.zeros(3), exponent, 0.0, 0.0
 
 
 def triangle_records(objects) -> np.ndarray:
-    """(T * 5, 4) float32: per triangle p0, p1, p2, (mean vertex normal, two_sided), (albedo, 0)."""
+    """(T * 6, 4) float32: per triangle p0, p1, p2, (mean vertex normal, two_sided), (kd, f0), (ks, exponent);
+    the Schlick flag rides in two_sided's sign bit of information: two_sided + 2 schlick."""
     out = []
     for obj in objects:
         mesh = obj.mesh
@@ -105,11 +123,13 @@ def triangle_records(objects) -> np.ndarray:
         length = np.linalg.norm(nn, axis=1, keepdims=True)
         nn = np.where(length > 1e-12, nn / np.maximum(length, 1e-12),
                       face / np.maximum(np.linalg.norm(face, axis=1, keepdims=True), 1e-30))
-        rec = np.zeros((len(idx), 5, 4))
+        rec = np.zeros((len(idx), TRIANGLE_VEC4, 4))
+        kd, ks, exponent, f0, schlick = reflectance_of(obj.material)
         rec[:, :3, :3] = tri
         rec[:, 3, :3] = nn
-        rec[:, 3, 3] = float(bool(obj.material.two_sided))
-        rec[:, 4, :3] = albedo_of(obj.material)
+        rec[:, 3, 3] = float(bool(obj.material.two_sided)) + 2.0 * schlick
+        rec[:, 4, :3], rec[:, 4, 3] = kd, f0
+        rec[:, 5, :3], rec[:, 5, 3] = ks, exponent
         out.append(rec.reshape(-1, 4))
     return np.concatenate(out).astype("f4")
 
@@ -136,7 +156,7 @@ class VoxelScene:
         self.grid = grid or vct_math.cascades_for(lo, hi, resolution, cascades)
         self.cones = vct_math.cone_set(diffuse_cones)
         records = triangle_records(objects)
-        self.triangle_count = len(records) // 5
+        self.triangle_count = len(records) // TRIANGLE_VEC4
         size = (resolution, resolution, resolution * cascades)
         limits.check_storage(ctx, records.nbytes, "objects", "the voxelizer's triangle list")
         limits.check_groups(ctx, (groups(self.triangle_count, 64),), "objects", "the voxelizer's dispatch")
@@ -374,7 +394,7 @@ def shared_voxels(frame: Frame) -> VoxelScene:
     if "vct" not in frame.shared:
         v = frame.scene.realtime.vct
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
-                                         v.diffuse_cones, v.step)
+                                         v.diffuse_cones, v.step, bounces=v.bounces)
     return frame.shared["vct"]
 
 

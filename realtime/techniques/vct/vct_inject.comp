@@ -2,12 +2,27 @@
 // Per voxel of one cascade (realtime/techniques/vct/vct.py), level 0 of the six face textures.
 // OCCUPANCY pass: alpha = 1 where a triangle touched the voxel, rgb = 0 (the opacity the visibility
 // cones of the INJECT pass trace through, after its mips are built).
-// INJECT pass: each face f that some triangle faces (weight W_f = sum max(0, n . a_f) > 0) gets the
-// direct radiance leaving toward a_f, normal-weighted: (W_f / max_g W_g) * albedo / pi * (E(n_f) V(n_f)
-// + E_bounce(n_f)), n_f the face's weighted mean normal, E the environment's SH9 irradiance (the
-// scene's diffuse technique's M when it is SH9), V the diffuse cones' visibility through the voxels
-// themselves (mips >= 1 only: level 0 is being written), E_bounce what the same cones gather from the
-// previous bounce's voxels (BOUNCE: radiance already in the mips).
+// INJECT pass: face f holds the radiance that leaves the voxel toward a_f, i.e. what a viewer looking
+// along -a_f sees of the surface inside it (opaque: alpha = 1):
+// - a face some triangle faces (W_f = sum max(0, n . a_f) > 0): the surface's radiance toward v = a_f,
+//   n_f its weighted mean normal, the paper's reflectance L = (1 - F) kd / pi (E V + E_b)
+//   + F ks (L_g(r) V + E_b / pi), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f). E is the
+//   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the SH9 radiance
+//   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N, whose band factors are
+//   Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3); V the diffuse cones'
+//   visibility through the voxels themselves (mips >= 1 only: level 0 is being written; the glossy lobe
+//   shares it), E_b what the same cones gather from the previous bounce (inject = 2; under the glossy
+//   lobe taken as uniform: a lobe of albedo ks under radiance E_b / pi reflects ks E_b / pi). A viewer
+//   along -a_f looking at a plane crossing the voxel hits its front whenever a_f . n > 0, so the face
+//   carries the full radiance (not a fraction n . a_f);
+// - a face no triangle faces whose opposite face none faces either (a_f lies in the surfaces' plane: the
+//   side faces of an axis-aligned plane): the mean of the faced faces' radiance. A cone reads a voxel's
+//   faces with weights d_a^2, so a plane of radiance L with normal +y read from d sends
+//   int (d_y^2 L + (1 - d_y^2) L_side) cos dw = pi/2 (L + L_side) into its front hemisphere: L_side = L
+//   gives its whole exitance pi L (L_side = 0 loses half of it). Where the voxel holds both sides of a thin
+//   surface (two opposite faces faced: a two-sided wall), a side face cannot tell which side its viewer is
+//   on; it takes the darker side's radiance (componentwise minimum), so that no light crosses the wall;
+// - a face looking at a surface's back (the opposite face is faced): black.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 1) readonly buffer Voxels { int acc[]; };
 layout(std430, binding = 2) readonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
@@ -36,6 +51,21 @@ void put(int f, ivec3 q, vec4 value) {
     else imageStore(out_nz, q, value);
 }
 
+const float PI = 3.14159265358979323846;
+
+// SH9 radiance of the environment convolved with the normalised Phong lobe of exponent N, at direction r
+// (scenes/environment/shbasis.py's basis and order)
+vec3 glossy_sh(vec3 r, float N) {
+    float l1 = (N + 1.0) / (N + 2.0), l2 = N / (N + 3.0);
+    float x = r.x, y = r.y, z = r.z;
+    float Y[9] = float[9](0.282095, 0.488603 * l1 * y, 0.488603 * l1 * z, 0.488603 * l1 * x,
+                          1.092548 * l2 * x * y, 1.092548 * l2 * y * z, 0.315392 * l2 * (3.0 * z * z - 1.0),
+                          1.092548 * l2 * x * z, 0.546274 * l2 * (x * x - y * y));
+    vec3 L = vec3(0.0);
+    for (int k = 0; k < 9; ++k) L += Y[k] * coeffs[k].rgb;
+    return max(L, vec3(0.0));
+}
+
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
     int R = vct_resolution;
@@ -48,39 +78,58 @@ void main() {
         for (int f = 0; f < 6; ++f) put(f, q, v);
         return;
     }
-    vec3 albedo = vec3(acc[base + 1], acc[base + 2], acc[base + 3]) / (ALBEDO_SCALE * float(count));
+    float cnt = float(count);
+    vec3 kd = vec3(acc[base + 1], acc[base + 2], acc[base + 3]) / (ALBEDO_SCALE * cnt);
+    vec3 ks = vec3(acc[base + 4], acc[base + 5], acc[base + 6]) / (ALBEDO_SCALE * cnt);
+    float N = float(acc[base + 7]) / (EXPONENT_SCALE * cnt);
+    float f0 = float(acc[base + 8]) / (ALBEDO_SCALE * cnt);
+    float schlick = float(acc[base + 9]) / (ALBEDO_SCALE * cnt);
     float he = vct_half_extent * exp2(float(cascade));
     float h = 2.0 * he / float(R);
     vec3 x = vct_centre - vec3(he) + (vec3(g) + 0.5) * h;
     // faces whose mean normals agree (a flat surface: up to three faces share one normal) share one set
     // of cones: at most six sets, usually one, two for a thin wall's two sides
-    // normal-weighted faces, normalised by the voxel's most-faced direction: a flat surface seen along
-    // its normal reads its full radiance (sum_a n_a^2 w_a = 1 for an axis-aligned or diagonal normal)
-    float W_max = 0.0;
-    for (int f = 0; f < 6; ++f) W_max = max(W_max, float(acc[base + 4 + 4 * f]));
     vec3 done_n[6];
-    vec3 done_E[6];
+    vec4 done_E[6];  // (environment irradiance x V + bounce, V)
     int done = 0;
+    vec3 L[6];
+    bool faced[6];
+    vec3 faced_sum = vec3(0.0), faced_min = vec3(1e30);
+    int faced_count = 0;
     for (int f = 0; f < 6; ++f) {
-        int o = base + 4 + 4 * f;
-        float W = float(acc[o]) / NORMAL_SCALE;
-        vec3 L = vec3(0.0);
+        int o = base + FACE_INTS0 + 4 * f;
         vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
-        if (W > 0.0 && length(ns) > 0.0) {
-            vec3 n = normalize(ns);
-            int k = 0;
-            for (; k < done; ++k)
-                if (dot(done_n[k], n) > SAME_NORMAL_COS) break;
-            if (k == done) {
-                vec4 gathered = vct_diffuse(x, n, lod_min);
-                vec3 E = irradiance(n) * gathered.a;
-                if (inject == 2) E += gathered.rgb;
-                done_n[done] = n;
-                done_E[done] = E;
-                ++done;
-            }
-            L = (W * NORMAL_SCALE / W_max) * albedo / 3.14159265358979323846 * done_E[k];
+        faced[f] = acc[o] > 0 && length(ns) > 0.0;
+        L[f] = vec3(0.0);
+        if (!faced[f]) continue;
+        vec3 n = normalize(ns);
+        int k = 0;
+        for (; k < done; ++k)
+            if (dot(done_n[k], n) > SAME_NORMAL_COS) break;
+        vec4 gathered;
+        if (k == done) {
+            gathered = vct_diffuse(x, n, lod_min);
+            done_n[done] = n;
+            done_E[done] = vec4(gathered.rgb, gathered.a);
+            ++done;
         }
-        put(f, q, vec4(L, 1.0));
+        gathered = done_E[k];
+        vec3 Eb = inject == 2 ? gathered.rgb : vec3(0.0);
+        float V = gathered.a;
+        vec3 a = vec3(0.0);
+        a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
+        float c = max(dot(n, a), 0.0);
+        float F = f0 + schlick * (1.0 - f0) * pow(1.0 - c, 5.0);
+        vec3 r = reflect(-a, n);
+        L[f] = (1.0 - F) * kd / PI * (irradiance(n) * V + Eb) + F * ks * (glossy_sh(r, N) * V + Eb / PI);
+        faced_sum += L[f];
+        faced_min = min(faced_min, L[f]);
+        ++faced_count;
+    }
+    bool thin = (faced[0] && faced[1]) || (faced[2] && faced[3]) || (faced[4] && faced[5]);
+    vec3 side = faced_count == 0 ? vec3(0.0) : (thin ? faced_min : faced_sum / float(faced_count));
+    for (int f = 0; f < 6; ++f) {
+        bool grazing = !faced[f] && !faced[f ^ 1];
+        put(f, q, vec4(faced[f] ? L[f] : (grazing ? side : vec3(0.0)), 1.0));
     }
 }

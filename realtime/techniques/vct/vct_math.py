@@ -1,8 +1,10 @@
 """The numpy half of voxel cone tracing (realtime/techniques/vct/vct.py; docs/contract.md section 9): what a test
 or the GPU side needs without GL.
 
-- `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles, cosine weights that
-  sum to pi) for 4, 6 or 9 cones; 6 cones of 60 degrees aperture are the seed's.
+- `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles whose solid angles sum
+  to the hemisphere's 2 pi, cosine weights that sum to pi) for 4, 6 or 9 cones.
+- `step_transmittance`: what one step of a cone lets through a texel (Beer-Lambert per axis, the optical
+  depths weighted by the direction's squared cosines; vct_trace.glsl's `vct_step_transmittance`).
 - `glossy_half_angle(exponent)`: the glossy cone follows the Phong exponent: its solid angle
   2 pi (1 - cos a) is the lobe's 2 pi / (N + 1) (McGuire et al. 2013), clamped to [1, 30] degrees.
 - `Cascades`: nested cubic grids, each twice the extent of the one inside it, centred on the objects;
@@ -24,8 +26,6 @@ import numpy as np
 
 #: cone counts `[realtime.vct] diffuse_cones` may take
 CONE_COUNTS = (4, 6, 9)
-#: the seed's diffuse cone: 60 degrees aperture for 6 cones
-SEED_HALF_ANGLE_DEG = 30.0
 #: polar angle of the ring of cones around the normal (the seed's 6-cone layout: one along n, five at 60 deg)
 RING_POLAR_DEG = 60.0
 #: the glossy cone's half-angle is clamped to this range (degrees)
@@ -43,10 +43,10 @@ class ConeSet:
 
 
 def half_angle_for(count: int) -> float:
-    """Cones of equal solid angle tiling the hemisphere have 2 pi (1 - cos a) = 2 pi / n; scaled so that
-    6 cones get the seed's 30 degrees (the seed's overlap ratio for every count)."""
-    equal_area = math.acos(1.0 - 1.0 / count)
-    return equal_area * math.radians(SEED_HALF_ANGLE_DEG) / math.acos(1.0 - 1.0 / 6.0)
+    """Cones whose solid angles sum to the hemisphere: n cones of half-angle a cover 2 pi n (1 - cos a) =
+    2 pi, so cos a = 1 - 1 / n (6 cones: 33.56 degrees, where the seed's 30 degrees leave a fifth of the
+    hemisphere, 2 pi - 6 * 2 pi (1 - cos 30 deg) = 1.23 sr, to no cone)."""
+    return math.acos(1.0 - 1.0 / count)
 
 
 @cache
@@ -74,6 +74,22 @@ def cone_set(count: int) -> ConeSet:
     w = np.bincount(owner, weights=z, minlength=count) * (2.0 * math.pi / m)
     w *= math.pi / w.sum()
     return ConeSet(d, half_angle_for(count), w)
+
+
+#: the opacity read is clamped below 1 so that its optical depth stays finite (vct_trace.glsl's VCT_MAX_ALPHA)
+MAX_ALPHA = 1.0 - 1e-6
+
+
+def step_transmittance(alphas: np.ndarray, d: np.ndarray, ds: float, voxel: float) -> float:
+    """Transmittance of a step ds along unit d through a texel of edge `voxel` whose faces (the ones a cone
+    along d reads, one per axis) have opacities `alphas` (3,). A face's alpha is the opacity of one texel's
+    length along its axis, so Beer-Lambert gives tau_a = -ln(1 - alpha_a) / voxel per length; along d the
+    extinction is the axes' interpolated by d's squared cosines (summing to 1):
+    T = prod_a (1 - alpha_a)^(d_a^2 ds / voxel). Half a texel counts half its optical depth, and an opaque
+    layer stays opaque to every ray crossing it (d_a != 0)."""
+    d = np.asarray(d, dtype=np.float64)
+    tau = -np.log(1.0 - np.minimum(np.asarray(alphas, dtype=np.float64), MAX_ALPHA))
+    return float(math.exp(-float((d * d) @ tau) * ds / voxel))
 
 
 def tangent_frame(n: np.ndarray) -> np.ndarray:

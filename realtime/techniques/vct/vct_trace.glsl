@@ -16,6 +16,8 @@ uniform int vct_cascades;
 uniform float vct_step;         // step along a cone, in units of its diameter there
 uniform float vct_start_voxels;  // first sample's distance from the (offset) origin, in voxels of the origin's cascade
 uniform float vct_normal_voxels; // the origin's offset along the normal, in the same voxels
+// the opacity read is clamped below 1 so that its optical depth -ln(1 - alpha) stays finite (13.8: opaque)
+#define VCT_MAX_ALPHA 0.999999
 
 // the finest cascade holding p, half a voxel inside its box (-1: outside every cascade)
 int vct_cascade_of(vec3 p) {
@@ -29,23 +31,52 @@ int vct_cascade_of(vec3 p) {
     return -1;
 }
 
-vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
-    // stay inside the cascade's slab along z: half a texel of the coarser of the two mips read
-    float texels = float(vct_resolution) / exp2(ceil(mip));
-    float z = clamp(local.z, 0.5 / texels, 1.0 - 0.5 / texels);
-    return textureLod(tex, vec3(local.xy, (float(c) + z) / float(vct_cascades)), mip);
+// One texel's value at mip `level` of cascade c, the texel holding `local` (nearest: no trilinear blend).
+// Opacity is read nearest because trilinear interpolation turns a one-texel opaque layer into a tent
+// alpha(x) = 1 - |x| (x in texels from its centre) whose optical depth int -ln(1 - alpha(x)) dx over
+// [-1, 1] is 2: a closed wall would pass e^-2 = 13.5 % of the light at every level. Nearest keeps the
+// opacity field piecewise constant, exact for a voxel of opacity alpha; steps of at most one texel
+// (ds / s = step <= 1 with the default 0.5) cannot cross a layer of texels without a sample inside it.
+vec4 vct_texel(sampler3D tex, vec3 local, int c, int level) {
+    int r = max(vct_resolution >> level, 1);
+    ivec3 i = clamp(ivec3(floor(local * float(r))), ivec3(0), ivec3(r - 1));
+    return texelFetch(tex, ivec3(i.xy, i.z + c * r), level);
 }
 
-// what a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing
-// against d, weighted by d's squared components
-vec4 vct_read(vec3 p, vec3 d, int c, float mip) {
+// the cone's fractional mip: the two levels around it, blended linearly (mip-linear, texel-nearest)
+vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
+    int l0 = int(floor(mip));
+    int l1 = min(l0 + 1, int(log2(float(vct_resolution))));
+    float f = mip - float(l0);
+    vec4 a = vct_texel(tex, local, c, l0);
+    return f > 0.0 ? mix(a, vct_texel(tex, local, c, l1), f) : a;
+}
+
+// What a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing against d.
+// Returns (sum_a d_a^2 rgb_a, sum_a d_a^2 alpha_a) and, in `alphas`, each axis's face opacity alpha_a:
+// the step's transmittance combines these in the optical-depth domain (vct_cone).
+vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas) {
     float he = vct_half_extent * exp2(float(c));
     vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
     vec3 w = d * d;
-    vec4 s = w.x * (d.x > 0.0 ? vct_fetch(vct_face_nx, local, c, mip) : vct_fetch(vct_face_px, local, c, mip));
-    s += w.y * (d.y > 0.0 ? vct_fetch(vct_face_ny, local, c, mip) : vct_fetch(vct_face_py, local, c, mip));
-    s += w.z * (d.z > 0.0 ? vct_fetch(vct_face_nz, local, c, mip) : vct_fetch(vct_face_pz, local, c, mip));
-    return s;
+    vec4 x = d.x > 0.0 ? vct_fetch(vct_face_nx, local, c, mip) : vct_fetch(vct_face_px, local, c, mip);
+    vec4 y = d.y > 0.0 ? vct_fetch(vct_face_ny, local, c, mip) : vct_fetch(vct_face_py, local, c, mip);
+    vec4 z = d.z > 0.0 ? vct_fetch(vct_face_nz, local, c, mip) : vct_fetch(vct_face_pz, local, c, mip);
+    alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0);
+    return w.x * x + w.y * y + w.z * z;
+}
+
+// Transmittance of a step ds along unit d through a texel of edge vs whose faces have opacities `alphas`
+// (vct_math.step_transmittance mirrors it). A face's alpha is the opacity of one texel's length along its
+// axis, so Beer-Lambert gives the optical depth per length tau_a = -ln(1 - alpha_a) / vs along axis a;
+// along d the extinction is interpolated between the axes by d's squared cosines (the weights of the
+// radiance read, summing to 1): T = exp(-ds sum_a d_a^2 tau_a) = prod_a (1 - alpha_a)^(d_a^2 ds / vs).
+// A step of half a texel thus counts half a texel's optical depth: alpha' = 1 - (1 - alpha)^(ds / vs).
+// Weighting optical depths (not opacities) keeps an opaque layer opaque to every ray that crosses it
+// (d_a != 0), where a weighted mean of opacities lets 1 - d_a^2 of an oblique ray through.
+float vct_step_transmittance(vec3 alphas, vec3 d, float ds, float vs) {
+    vec3 tau = -log(1.0 - min(alphas, vec3(VCT_MAX_ALPHA)));
+    return exp(-dot(d * d, tau) * ds / vs);
 }
 
 // One cone from `origin` along unit d with tan(half-angle) `tan_half`, front to back from distance t0:
@@ -87,12 +118,23 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         float lod = max(min(lod_cone, lod_cap), lod_min);
         int c = clamp(int(floor(lod)), inside, vct_cascades - 1);
         float mip = clamp(lod - float(c), 0.0, max_mip);
-        vec4 s = vct_read(p, d, c, mip);
+        vec3 alphas, fine;
+        vec4 s = vct_read(p, d, c, mip, alphas);
+        // Opacity also from the finer level whose texel is the step (ds = vct_step * diam: log2(vct_step)
+        // levels below; the cascade's own level 0 at the finest): a coarse texel at a surface's edge averages
+        // the surface with the open space beyond it, which a cone inside the surface's bounds cannot reach
+        // without crossing it (a closed box's corner texels read 1 - 2/16 transparent at 16 voxels a texel);
+        // the finer texel holding the axis is the one the cone's centre crosses, and texels as long as the
+        // step cannot be stepped over. The larger opacity of the two is kept (a small occluder off the axis
+        // still counts through the coarse texel).
+        vct_read(p, d, c, max(mip + log2(vct_step), 0.0), fine);
+        alphas = max(alphas, fine);
         float ds = vct_step * diam;
-        // opacity of a step ds through a voxel of edge vs at this level (Beer-Lambert correction)
+        // opacity of a step ds through a texel of edge vs at this level (Beer-Lambert, vct_step_transmittance);
+        // the radiance it adds is the texel's (rgb / alpha, premultiplied) times that opacity
         float vs = vct_voxel * exp2(float(c) + mip);
         float a0 = clamp(s.a, 0.0, 1.0);
-        float a = 1.0 - pow(1.0 - min(a0, 0.9999), ds / vs);
+        float a = 1.0 - vct_step_transmittance(alphas, d, ds, vs);
         vec3 rgb = a0 > 1e-6 ? s.rgb * (a / a0) : vec3(0.0);
         acc.rgb += (1.0 - acc.a) * rgb;
         acc.a += (1.0 - acc.a) * a;

@@ -2,12 +2,14 @@
 // Voxelisation of the scene's triangles into one cascade (realtime/techniques/vct/vct.py): one invocation per
 // triangle visits the voxels of its bounding box and keeps those the triangle overlaps (the
 // separating-axis triangle/box test of Akenine-Moller 2001: conservative). Per voxel, integer atomics
-// accumulate: the triangle count, the albedo, and for each of the six face directions a_f the
+// accumulate: the triangle count, the reflectance (kd, ks, exponent, f0, Schlick flag: summed, the injection
+// divides by the count), and for each of the six face directions a_f the
 // normal weight sum max(0, n . a_f) and the weighted normal sum max(0, n . a_f) n (a thin or folded
 // surface keeps both of its sides apart instead of averaging them to nothing). Two-sided triangles
 // count with both n and -n.
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Triangles { vec4 tri[]; };  // per triangle: p0 p1 p2 (n, two_sided) (albedo, 0)
+// per triangle: p0 p1 p2 (n, two_sided + 2 schlick) (kd, f0) (ks, exponent)
+layout(std430, binding = 0) readonly buffer Triangles { vec4 tri[]; };
 layout(std430, binding = 1) coherent buffer Voxels { int acc[]; };       // VOXEL_INTS per voxel
 uniform int triangle_count;
 uniform vec3 grid_min;   // the cascade's lower corner
@@ -35,14 +37,14 @@ bool overlaps(vec3 c, vec3 hs, vec3 a, vec3 b, vec3 d) {
     return true;  // the box axes are the bounding-box test the caller did
 }
 
-void add(int base, vec3 n, vec3 albedo) {
+void add(int base, vec3 n) {
     const float S = NORMAL_SCALE;
     for (int f = 0; f < 6; ++f) {
         vec3 a = vec3(0.0);
         a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
         float w = max(dot(n, a), 0.0);
         if (w <= 0.0) continue;
-        int o = base + 4 + 4 * f;
+        int o = base + FACE_INTS0 + 4 * f;
         atomicAdd(acc[o], int(round(w * S)));
         atomicAdd(acc[o + 1], int(round(w * n.x * S)));
         atomicAdd(acc[o + 2], int(round(w * n.y * S)));
@@ -53,9 +55,11 @@ void add(int base, vec3 n, vec3 albedo) {
 void main() {
     int t = int(gl_GlobalInvocationID.x);
     if (t >= triangle_count) return;
-    vec3 a = tri[5 * t].xyz, b = tri[5 * t + 1].xyz, d = tri[5 * t + 2].xyz;
-    vec4 nn = tri[5 * t + 3];
-    vec3 albedo = tri[5 * t + 4].rgb;
+    vec3 a = tri[6 * t].xyz, b = tri[6 * t + 1].xyz, d = tri[6 * t + 2].xyz;
+    vec4 nn = tri[6 * t + 3];
+    vec4 kd = tri[6 * t + 4], ks = tri[6 * t + 5];
+    bool two_sided = mod(nn.w, 2.0) > 0.5;
+    float schlick = nn.w > 1.5 ? 1.0 : 0.0;
     vec3 lo = (min(a, min(b, d)) - grid_min) / voxel;
     vec3 hi = (max(a, max(b, d)) - grid_min) / voxel;
     ivec3 i0 = max(ivec3(floor(lo)), ivec3(0));
@@ -69,10 +73,14 @@ void main() {
                 if (!overlaps(c, hs, a, b, d)) continue;
                 int base = ((z * resolution + y) * resolution + x) * VOXEL_INTS;
                 atomicAdd(acc[base], 1);
-                atomicAdd(acc[base + 1], int(round(albedo.r * ALBEDO_SCALE)));
-                atomicAdd(acc[base + 2], int(round(albedo.g * ALBEDO_SCALE)));
-                atomicAdd(acc[base + 3], int(round(albedo.b * ALBEDO_SCALE)));
-                add(base, nn.xyz, albedo);
-                if (nn.w > 0.5) add(base, -nn.xyz, albedo);
+                for (int k = 0; k < 3; ++k) {
+                    atomicAdd(acc[base + 1 + k], int(round(kd[k] * ALBEDO_SCALE)));
+                    atomicAdd(acc[base + 4 + k], int(round(ks[k] * ALBEDO_SCALE)));
+                }
+                atomicAdd(acc[base + 7], int(round(ks.w * EXPONENT_SCALE)));
+                atomicAdd(acc[base + 8], int(round(kd.w * ALBEDO_SCALE)));
+                atomicAdd(acc[base + 9], int(round(schlick * ALBEDO_SCALE)));
+                add(base, nn.xyz);
+                if (two_sided) add(base, -nn.xyz);
             }
 }
