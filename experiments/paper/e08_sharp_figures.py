@@ -74,5 +74,5 @@ def plot_heat(lines: Sequence[tuple[str, np.ndarray | None, Sequence[tuple[str, 
             im = axes[i, j].imshow(err, cmap="inferno", vmin=0.0, vmax=vmax)
             axes[i, j].set_title(name, fontsize=6)
         if known:
-            fig.colorbar(im, ax=list(axes[i, 1:]), fraction=0.02, pad=0.01)
+            fig.colorbar(im, ax=axes[i, -1], fraction=0.046, pad=0.02)
     plots.save(fig, path)

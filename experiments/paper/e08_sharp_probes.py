@@ -1,14 +1,15 @@
 """E8's sharp-shadow part: which packaged probe is broad and which has small bright sources.
 
-A probe's concentration is the smallest solid angle that holds a given fraction of its energy:
+A probe's concentration is the smallest solid angle that holds a given fraction of its energy, the map read as
+the piecewise-constant function it is (texel t: luminance Y_t, Rec. 709, over its exact solid angle dOmega_t, the
+equirect band areas of `scenes.environment.directions.equirect_solid_angles`):
 
-    Omega_f = min { sum_{t in S} dOmega_t : sum_{t in S} Y_t dOmega_t >= f sum_t Y_t dOmega_t },
+    Omega_f = min { sum_t x_t dOmega_t : sum_t x_t Y_t dOmega_t >= f sum_t Y_t dOmega_t, 0 <= x_t <= 1 },
 
-with Y_t the Rec. 709 luminance of texel t and dOmega_t its exact solid angle (the equirect band areas of
-`scenes.environment.directions.equirect_solid_angles`). The minimum is reached by taking texels in order of
-decreasing radiance Y_t (a fractional knapsack whose value per steradian is Y_t: greedy by Y_t is optimal),
-stopping at the first texel that reaches the fraction. A single texel of radiance L and solid angle w in a black map
-gives Omega_f = w for every f; a constant map gives Omega_f = 4 pi f (up to one texel).
+x_t the part of texel t taken. By the bathtub principle (Lieb & Loss, "Analysis", theorem 1.14) the minimum is a
+superlevel set: the texels in order of decreasing Y_t, whole until the fraction is nearly reached, then the part
+of the next one that reaches it (the greedy solution of this fractional knapsack). A single texel of solid angle w
+in a black map gives Omega_f = f w; a constant map gives Omega_f = 4 pi f.
 
 The probe of the smallest Omega_{1/2} has the most energy in the smallest solid angle (sharp shadows); the one of
 the largest is the broadest.
@@ -36,9 +37,13 @@ def concentration(env: np.ndarray, fraction: float = FRACTION) -> float:
     if not total > 0.0:
         raise ValueError("the map has no energy: its concentration is undefined")
     order = np.argsort(-y, kind="stable")
+    order = order[y[order] > 0.0]  # black texels hold nothing
+    target = fraction * total
     reached = np.cumsum(energy[order])
-    k = int(np.searchsorted(reached, fraction * total * (1.0 - 1e-12)))
-    return float(omega[order][: k + 1].sum())
+    k = min(int(np.searchsorted(reached, target)), len(order) - 1)  # the texel that reaches the target
+    before = reached[k - 1] if k else 0.0
+    whole = float(omega[order][:k].sum())
+    return whole + float((target - before) / y[order][k])  # the part of texel k: its missing energy / its Y
 
 
 def rank(probes: dict[str, np.ndarray], fraction: float = FRACTION) -> list[tuple[str, float]]:

@@ -133,7 +133,7 @@ def run_cases(context: Context, s: SharpSettings) -> list[Case]:
                     row = context.row(spec, {**timing, **env, **c}, "E8", curve=curve)
                 except SceneError as exc:  # a technique that refuses the configuration (its memory guard, a size)
                     context.progress()
-                    case.refused.append((str(c), str(exc)))
+                    case.refused.append((", ".join(f"{k.split('.', 1)[1]} = {v}" for k, v in c.items()), str(exc)))
                     continue
                 case.rows.append(with_costs(context, row))
             out.append(case)
