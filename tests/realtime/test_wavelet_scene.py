@@ -1,0 +1,99 @@
+"""`realtime.diffuse = "wavelet_prt"` as a scene chooses it: registration, parameter checks and combination
+rules (realtime/techniques/wavelet_prt/declaration.py), each refusal with a valid neighbour as its control.
+
+`register` puts the package's entry point beside the installed builtins (as iblcheck's own pyproject.toml
+declares it) when the installed metadata does not have it yet, so these tests run before a reinstall."""
+
+from __future__ import annotations
+
+import pytest
+
+import scenes
+from realtime.techniques.wavelet_prt import declaration
+from scenes.model import technique_registry as reg
+from scenes.storage.errors import SceneError
+
+ENTRY = "realtime.techniques.wavelet_prt.declaration:DECLARATIONS"
+
+
+class _Dist:
+    name = reg.BUILTIN_DISTRIBUTION
+
+
+class _EntryPoint:
+    """What the registry reads of an entry point (name, dist.name, load) for the package's line in pyproject."""
+
+    name, dist = "wavelet_prt", _Dist()
+
+    def load(self):
+        return declaration.DECLARATIONS
+
+
+@pytest.fixture
+def register(monkeypatch):
+    real = reg._entry_points
+    if not any(ep.name == "wavelet_prt" for ep in real()):
+        monkeypatch.setattr(reg, "_entry_points", lambda: [*real(), _EntryPoint()])
+        reg.registry.cache_clear()
+    yield
+    monkeypatch.setattr(reg, "_entry_points", real)
+    reg.registry.cache_clear()
+
+
+def wavelet_scene(name: str = "builtin:sphere-on-plane", **overrides) -> scenes.Scene:
+    return scenes.load(name).with_overrides({"realtime.diffuse": "wavelet_prt", **overrides})
+
+
+def test_the_entry_point_in_pyproject_names_the_declarations():
+    import tomllib
+    from pathlib import Path
+
+    data = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
+    assert data["project"]["entry-points"]["iblcheck.techniques"]["wavelet_prt"] == ENTRY
+
+
+def test_registered_for_the_three_effects_with_defaults(register):
+    assert [reg.lookup(e, "wavelet_prt").effect for e in ("diffuse", "occlusion", "interreflection")] == \
+        ["diffuse", "occlusion", "interreflection"]
+    scene = wavelet_scene()
+    w = scene.realtime.wavelet_prt
+    assert (w.cube_size, w.terms, w.threshold, w.bounces) == (32, 256, 1e-4, 0)
+    from realtime.engine import technique
+    assert technique.describe(scene)["wavelet_prt"] == {"cube_size": 32, "terms": 256, "threshold": 1e-4}
+
+
+@pytest.mark.parametrize(("overrides", "message"), [
+    ({"realtime.wavelet_prt.terms": 6 * 16 * 16 + 1, "realtime.wavelet_prt.cube_size": 16}, "at most 1536"),
+    ({"realtime.wavelet_prt.cube_size": 256, "realtime.base_size": 512}, "power of two in [8, 128]"),
+    ({"realtime.wavelet_prt.cube_size": 48}, "power of two"),
+    ({"realtime.wavelet_prt.cube_size": 64, "realtime.base_size": 32, "realtime.face_size": 32},
+     "at most realtime.base_size"),
+    ({"realtime.wavelet_prt.threshold": -1e-3}, "realtime.wavelet_prt.threshold"),
+    ({"realtime.wavelet_prt.terms": 0}, "realtime.wavelet_prt.terms"),
+    ({"realtime.occlusion": "wavelet_prt", "realtime.diffuse": "sh"}, 'realtime.diffuse = "wavelet_prt"'),
+    ({"realtime.interreflection": "wavelet_prt", "realtime.wavelet_prt.bounces": 1}, "includes its shadowing"),
+    ({"realtime.occlusion": "wavelet_prt", "realtime.interreflection": "wavelet_prt"}, "at least one bounce"),
+    ({"realtime.wavelet_prt.bounces": 2}, "bounces are gathered"),
+    ({"realtime.wavelet_prt.rays": 64}, "hemisphere rays"),
+    ({"objects.0.material.two_sided": True}, "two_sided"),
+])
+def test_refusals_name_the_keys(register, overrides, message):
+    with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]").replace("^", r"\^")):
+        wavelet_scene(**overrides)
+
+
+@pytest.mark.parametrize("overrides", [
+    {"realtime.wavelet_prt.terms": 6 * 16 * 16, "realtime.wavelet_prt.cube_size": 16},  # exactly all terms
+    {"realtime.wavelet_prt.cube_size": 32, "realtime.base_size": 32, "realtime.face_size": 32},
+    {"realtime.wavelet_prt.threshold": 0.0},
+    {"realtime.occlusion": "wavelet_prt", "realtime.interreflection": "wavelet_prt", "realtime.wavelet_prt.bounces": 1,
+     "realtime.wavelet_prt.rays": 64},
+])
+def test_valid_neighbours_load(register, overrides):
+    """Controls of the refusals: the nearest valid settings load, and describe what runs."""
+    from realtime.engine import technique
+
+    d = technique.describe(wavelet_scene(**overrides))["wavelet_prt"]
+    for key, value in overrides.items():
+        if key.startswith("realtime.wavelet_prt."):
+            assert d[key.rsplit(".", 1)[1]] == value
