@@ -57,7 +57,7 @@ def label(t: dict) -> str:
         return f"SH PRT order {p.get('order')} ({p.get('rays', 0)} rays, {p.get('bounces', 0)} bounces)"
     if t.get("diffuse") == "wavelet_prt":
         w = t.get("wavelet_prt", {})
-        return f"wavelet PRT cube {w.get('cube_size')}, K = {w.get('terms')}"
+        return f"wavelet PRT cube {w.get('cube_size')}, K = {w.get('terms')} ({w.get('bounces', 0)} bounces)"
     if "lights" in (t.get("diffuse"), t.get("glossy")):
         lights = t.get("lights", {})
         out = f"{lights.get('count')} lights {str(lights.get('placement')).replace('_', ' ')}"

@@ -57,6 +57,7 @@ class SharpSettings:
     wavelet_cubes_other: tuple[int, ...]  # cube sizes on every other scene and probe
     wavelet_terms: tuple[int, ...]  # K
     wavelet_bounces: int
+    wavelet_unbounced: tuple[int, ...]  # cube sizes run without bounces (their bounce gather exceeds the memory guard)
     light_arrays: tuple[tuple[str, int, int], ...]  # (placement, count, shadow map size)
     frames: int  # timed frames per row (medians)
     max_spp: int  # the path tracer's ladder
@@ -64,10 +65,10 @@ class SharpSettings:
 
 QUICK = SharpSettings(scenes=SCENES, candidates=environments.PROBES, sh_orders=(2, 4, 8), sh_rays=256, sh_bounces=1,
                       wavelet_cubes=(16, 32), wavelet_cubes_other=(16,), wavelet_terms=(16, 256), wavelet_bounces=1,
-                      light_arrays=(("geodesic", 42, 256),), frames=3, max_spp=256)
+                      wavelet_unbounced=(), light_arrays=(("geodesic", 42, 256),), frames=3, max_spp=256)
 FULL = SharpSettings(scenes=SCENES, candidates=environments.PROBES, sh_orders=(2, 3, 4, 5, 6, 7, 8), sh_rays=1024,
                      sh_bounces=1, wavelet_cubes=(16, 32, 64), wavelet_cubes_other=(32,),
-                     wavelet_terms=(16, 64, 256, 1024), wavelet_bounces=1,
+                     wavelet_terms=(16, 64, 256, 1024), wavelet_bounces=1, wavelet_unbounced=(64,),
                      light_arrays=(("geodesic", 42, 1024), ("median_cut", 64, 1024)), frames=5, max_spp=1024)
 
 
@@ -91,7 +92,8 @@ def configs(scene, s: SharpSettings, cubes: tuple[int, ...]) -> list[dict]:
     """The rows of one scene and probe (without the probe's override): paper, SH orders, wavelet cube x K, arrays."""
     out: list[dict] = [{}]
     out += [prt_ov(o, s.sh_rays, s.sh_bounces) for o in s.sh_orders]
-    out += [wavelet_ov(c, k, s.wavelet_bounces) for c in cubes for k in s.wavelet_terms if k <= 6 * c * c]
+    out += [wavelet_ov(c, k, 0 if c in s.wavelet_unbounced else s.wavelet_bounces)
+            for c in cubes for k in s.wavelet_terms if k <= 6 * c * c]
     out += [lights_ov(scene, placement, n, size) for placement, n, size in s.light_arrays if fits(n, size)]
     return out
 
@@ -131,7 +133,7 @@ def run_cases(context: Context, s: SharpSettings) -> list[Case]:
             for c in configs(scene, s, wavelet_cubes(s, name, probe_spec)):
                 try:
                     row = context.row(spec, {**timing, **env, **c}, "E8", curve=curve)
-                except SceneError as exc:  # a technique that refuses the configuration (its memory guard, a size)
+                except (SceneError, MemoryError) as exc:  # a technique refuses the configuration (a size, its memory)
                     context.progress()
                     case.refused.append((", ".join(f"{k.split('.', 1)[1]} = {v}" for k, v in c.items()), str(exc)))
                     continue
@@ -272,7 +274,10 @@ def section(context: Context, s: SharpSettings) -> tuple[list[dict], str, list[s
     note = (f"Probes ranked by the solid angle holding half their energy (smallest: most concentrated). SH PRT: "
             f"{s.sh_rays} visibility rays, {s.sh_bounces} bounce(s); wavelet PRT: {s.wavelet_bounces} bounce(s), "
             f"cube sizes {', '.join(map(str, s.wavelet_cubes))} on {PRIMARY[0]} under the sun sky, "
-            f"{', '.join(map(str, s.wavelet_cubes_other))} elsewhere. Bytes per vertex: the per-vertex transfer the "
+            f"{', '.join(map(str, s.wavelet_cubes_other))} elsewhere"
+            + (f", cube size(s) {', '.join(map(str, s.wavelet_unbounced))} without bounces (the bounce gather's "
+               "memory exceeds wavelet PRT's guard, half the physical memory)" if s.wavelet_unbounced else "")
+            + ". Bytes per vertex: the per-vertex transfer the "
             "shader reads (SH: (order + 1)^2 x 3 float32; wavelet: the stored (index, value) pairs). The criterion: "
             f"the best wavelet row at most {analysis.TIME_FACTOR:g}x the frame ms of the best SH order must be "
             f"{analysis.MARGIN_DB:g} dB above it. Heat maps: |real time - reference| of the display values, cropped "

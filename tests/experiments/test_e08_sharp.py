@@ -17,6 +17,8 @@ from experiments.paper import e08_sharp_shadows as sharp
 from experiments.paper.context import Common, Context
 from experiments.paper.e08_overrides import prt_ov, wavelet_ov
 from realtime.engine.technique import describe
+from realtime.techniques.wavelet_prt import declaration as wavelet_declaration
+from scenes.model import technique_registry
 
 # ----------------------------------------------------------------------------- probe concentration
 
@@ -199,7 +201,7 @@ def test_family_and_label_of_the_techniques_a_scene_describes(ov, fam, text):
 def test_family_and_label_of_wavelet_prt_and_the_unshadowed_array():
     t = {"diffuse": "wavelet_prt", "occlusion": "wavelet_prt", "wavelet_prt": {"cube_size": 32, "terms": 256}}
     assert analysis.family(t) == "wavelet PRT, cube 32"
-    assert analysis.label(t) == "wavelet PRT cube 32, K = 256"
+    assert analysis.label(t) == "wavelet PRT cube 32, K = 256 (0 bounces)"
     t = {"diffuse": "lights", "lights": {"placement": "geodesic", "count": 42}}
     assert analysis.family(t) == "light array" != analysis.LIGHTS
 
@@ -221,6 +223,8 @@ def test_configs_give_every_cube_size_on_the_primary_case_only():
     key = "realtime.wavelet_prt.cube_size"
     cubes = lambda cs: sorted({c[key] for c in cs if key in c})  # noqa: E731
     assert cubes(primary) == [16, 32, 64] and cubes(other) == list(s.wavelet_cubes_other)
+    bounces = {c[key]: c.get("realtime.wavelet_prt.bounces", 0) for c in primary if key in c}
+    assert bounces == {16: 1, 32: 1, 64: 0}  # 64 without: its bounce gather exceeds the memory guard
     orders = [c["realtime.prt.order"] for c in primary if "realtime.prt.order" in c]
     assert orders == [2, 3, 4, 5, 6, 7, 8]
     assert len(primary) == 1 + 7 + 3 * 4 + 2
@@ -229,7 +233,7 @@ def test_configs_give_every_cube_size_on_the_primary_case_only():
 def test_configs_drop_k_above_the_cube_s_texels():
     s = sharp.SharpSettings(scenes=sharp.SCENES, candidates=("ennis",), sh_orders=(), sh_rays=64, sh_bounces=0,
                             wavelet_cubes=(8,), wavelet_cubes_other=(8,), wavelet_terms=(16, 384, 385),
-                            wavelet_bounces=0, light_arrays=(), frames=1, max_spp=4)
+                            wavelet_bounces=0, wavelet_unbounced=(), light_arrays=(), frames=1, max_spp=4)
     found = sharp.configs(scenes.load("builtin:sphere-on-plane"), s, (8,))
     ks = [c["realtime.wavelet_prt.terms"] for c in found if "realtime.wavelet_prt.terms" in c]
     assert ks == [16, 384] and found[0] == {}  # 6 x 8^2 = 384 texels
@@ -259,13 +263,39 @@ def test_crop_window_refuses_a_window_larger_than_the_map():
 # ----------------------------------------------------------------------------- smoke run
 
 
+class _Dist:
+    name = "iblcheck-wavelet-prt-test"
+
+
+class _WaveletEntryPoint:
+    """wavelet_prt's entry point as a plugin, for an installed metadata older than the package (as a plugin its table
+    enters only the scenes that choose it)."""
+
+    name, dist = "wavelet_prt", _Dist()
+
+    def load(self):
+        return wavelet_declaration.DECLARATIONS
+
+
+@pytest.fixture
+def wavelet_registered(monkeypatch):
+    real = technique_registry._entry_points
+    if not any(ep.name == "wavelet_prt" for ep in real()):
+        monkeypatch.setattr(technique_registry, "_entry_points", lambda: [*real(), _WaveletEntryPoint()])
+    technique_registry.registry.cache_clear()
+    yield
+    monkeypatch.setattr(technique_registry, "_entry_points", real)
+    technique_registry.registry.cache_clear()
+
+
 @pytest.mark.gl
 @pytest.mark.mitsuba
 @pytest.mark.slow
-def test_sharp_section_runs_at_tiny_settings(tmp_path: Path):
+def test_sharp_section_runs_at_tiny_settings(tmp_path: Path, wavelet_registered):
     s = sharp.SharpSettings(scenes=(("sphere-on-plane", "builtin:sphere-on-plane"),), candidates=("ennis",),
                             sh_orders=(2,), sh_rays=16, sh_bounces=0, wavelet_cubes=(8,), wavelet_cubes_other=(8,),
-                            wavelet_terms=(16,), wavelet_bounces=0, light_arrays=(("geodesic", 4, 64),), frames=1,
+                            wavelet_terms=(16,), wavelet_bounces=1, wavelet_unbounced=(8,),
+                            light_arrays=(("geodesic", 4, 64),), frames=1,
                             max_spp=8)
     steps = []
     context = Context(tmp_path, Common(size=24, spp=8, frames=1), lambda: steps.append(1))
@@ -273,6 +303,8 @@ def test_sharp_section_runs_at_tiny_settings(tmp_path: Path):
     assert len(steps) == sharp.count_steps(s)
     assert all((tmp_path / f).is_file() for f in figs)
     assert "ennis (broad)" in md and "sun sky" in md  # one candidate: the broadest and the sharpest
-    for needle in ("SH PRT order 2 (16 rays, 0 bounces)", "4 lights geodesic + shadow maps 64", analysis.PAPER):
+    for needle in ("SH PRT order 2 (16 rays, 0 bounces)", "4 lights geodesic + shadow maps 64", analysis.PAPER,
+                   "wavelet PRT cube 8, K = 16 (0 bounces)"):
         assert needle in md
+    assert "refused" not in md
     assert "6 dB / 2x criterion" in md
