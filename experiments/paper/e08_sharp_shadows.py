@@ -260,13 +260,14 @@ def section(context: Context, s: SharpSettings) -> tuple[list[dict], str, list[s
     probe_header = ["probe", "solid angle of a quarter of the energy (sr)", "solid angle of half the energy (sr)"]
     probe_rows = [[name, f"{probes_mod.concentration(environments.builtin(spec.split(':', 1)[1]), 0.25):.4f}",
                    f"{omega:.4f}"] for name, spec, omega in probes(s)]
-    header = ["scene", "probe", "technique", "unbiased PSNR dB", "frame ms", "precompute s", "bytes per vertex"]
+    header = ["scene", "probe", "technique", "unbiased PSNR dB", "frame ms", "of which filter ms", "precompute s",
+              "bytes per vertex"]
     table = []
     for case in cases:
         for r in sorted(case.rows, key=lambda r: (family(r), frame_ms(r) or 0.0)):
             bpv = r.extra.get("bytes_per_vertex")
-            table.append([case.scene, case.probe, label(r), unbiased_cell(r), f2(frame_ms(r)), f2(precompute_s(r)),
-                          "-" if bpv is None else f"{bpv:.0f}"])
+            table.append([case.scene, case.probe, label(r), unbiased_cell(r), f2(frame_ms(r)),
+                          f2(r.realtime_ms.get("filter")), f2(precompute_s(r)), "-" if bpv is None else f"{bpv:.0f}"])
     sat_header = ["scene", "probe", "cube size", f"K at saturation (within {analysis.SATURATION_DB:g} dB of the best)",
                   "best K", "best dB", "dB per K"]
     sat = [line for case in cases for line in saturations(case)]
@@ -278,7 +279,9 @@ def section(context: Context, s: SharpSettings) -> tuple[list[dict], str, list[s
             + (f", cube size(s) {', '.join(map(str, s.wavelet_unbounced))} without bounces (the bounce gather's "
                "memory exceeds wavelet PRT's guard, half the physical memory)" if s.wavelet_unbounced else "")
             + ". Bytes per vertex: the per-vertex transfer the "
-            "shader reads (SH: (order + 1)^2 x 3 float32; wavelet: the stored (index, value) pairs). The criterion: "
+            "shader reads (SH: (order + 1)^2 x 3 float32; wavelet: the stored (index, value) pairs). Filter ms: the "
+            "per-frame lighting work (SH: the projection; wavelet: the Haar transform, the top-K selection and the "
+            "per-vertex sums; the light array: its powers are `lights`, its maps `shadow`). The criterion: "
             f"the best wavelet row at most {analysis.TIME_FACTOR:g}x the frame ms of the best SH order must be "
             f"{analysis.MARGIN_DB:g} dB above it. Heat maps: |real time - reference| of the display values, cropped "
             "where the paper (no occlusion) errs most.")
