@@ -244,8 +244,10 @@ def findings(cases: list[Case]) -> list[str]:
                 parts.append(f"{label(b)} {b.psnr_unbiased:.2f} dB in {f2(frame_ms(b))} ms")
         v = verdict(case)
         primary = " (the criterion's case)" if (case.scene, case.probe_spec) == PRIMARY else ""
-        out.append(f"{case.scene} under {case.probe}{primary}: " + "; ".join(parts) + ". 6 dB / 2x criterion: "
-                   + ("holds" if v.holds else "does not hold") + f": {v.why}.")
+        sat = "; ".join(f"cube {line[2]}: K = {line[3]}" for line in saturations(case))
+        out.append(f"{case.scene} under {case.probe}{primary}: " + "; ".join(parts) + ". "
+                   + (f"Wavelet PRT saturates (within {analysis.SATURATION_DB:g} dB of its best K) at {sat}. " if sat
+                      else "") + "6 dB / 2x criterion: " + ("holds" if v.holds else "does not hold") + f": {v.why}.")
         for c, why in case.refused:
             out.append(f"{case.scene} under {case.probe}: refused {c}: {why}")
     return out
