@@ -64,7 +64,7 @@ class SharpSettings:
 
 
 QUICK = SharpSettings(scenes=SCENES, candidates=environments.PROBES, sh_orders=(2, 4, 8), sh_rays=256, sh_bounces=1,
-                      wavelet_cubes=(16, 32), wavelet_cubes_other=(16,), wavelet_terms=(16, 256), wavelet_bounces=1,
+                      wavelet_cubes=(16,), wavelet_cubes_other=(16,), wavelet_terms=(16, 256), wavelet_bounces=1,
                       wavelet_unbounced=(), light_arrays=(("geodesic", 42, 256),), frames=3, max_spp=256)
 FULL = SharpSettings(scenes=SCENES, candidates=environments.PROBES, sh_orders=(2, 3, 4, 5, 6, 7, 8), sh_rays=1024,
                      sh_bounces=1, wavelet_cubes=(16, 32, 64), wavelet_cubes_other=(32,),
