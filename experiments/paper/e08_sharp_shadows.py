@@ -103,8 +103,8 @@ def count_steps(s: SharpSettings) -> int:
     n = 0
     for name, spec in s.scenes:
         scene = scenes.load(spec)
-        for _, probe, _ in probes(s):
-            n += 1 + len(configs(scene, s, wavelet_cubes(s, name, probe)))
+        for _, probe_spec, _ in probes(s):
+            n += 1 + len(configs(scene, s, wavelet_cubes(s, name, probe_spec)))
     return n
 
 
