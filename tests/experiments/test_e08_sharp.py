@@ -18,6 +18,7 @@ from experiments.paper.context import Common, Context
 from experiments.paper.e08_overrides import prt_ov, wavelet_ov
 from realtime.engine.technique import describe
 from realtime.techniques.wavelet_prt import declaration as wavelet_declaration
+from scenes.environment import directions
 from scenes.model import technique_registry
 
 # ----------------------------------------------------------------------------- probe concentration
@@ -104,6 +105,16 @@ def test_a_constant_map_holds_the_fraction_in_that_fraction_of_the_sphere():
     env = np.ones((64, 128, 3))
     for f in (0.25, 0.5, 1.0):
         assert probes.concentration(env, f) == pytest.approx(4 * np.pi * f, rel=1e-9)
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_all_the_energy_takes_exactly_the_lit_texels(seed):
+    """Omega_1 is the solid angle of the support (every texel with light, none without), also where the running sum
+    falls short of the total by rounding."""
+    rng = np.random.default_rng(seed)
+    env = np.where(rng.random((32, 64, 1)) < 0.3, rng.lognormal(0.0, 3.0, (32, 64, 1)), 0.0).repeat(3, axis=2)
+    omega = directions.equirect_solid_angles(32, 64)
+    assert probes.concentration(env, 1.0) == pytest.approx(float(omega[env[..., 0] > 0].sum()), rel=1e-6)
 
 
 def test_pick_names_the_broadest_and_the_sharpest_and_the_packaged_ranking_is_stated():
