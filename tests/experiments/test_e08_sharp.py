@@ -235,7 +235,7 @@ def test_configs_give_every_cube_size_on_the_primary_case_only():
     cubes = lambda cs: sorted({c[key] for c in cs if key in c})  # noqa: E731
     assert cubes(primary) == [16, 32, 64] and cubes(other) == list(s.wavelet_cubes_other)
     bounces = {c[key]: c.get("realtime.wavelet_prt.bounces", 0) for c in primary if key in c}
-    assert bounces == {16: 1, 32: 1, 64: 0}  # 64 without: its bounce gather exceeds the memory guard
+    assert bounces == {16: 2, 32: 2, 64: 0}  # 64 without: its bounce gather exceeds the memory guard
     orders = [c["realtime.prt.order"] for c in primary if "realtime.prt.order" in c]
     assert orders == [2, 3, 4, 5, 6, 7, 8]
     assert len(primary) == 1 + 7 + 3 * 4 + 2
