@@ -3,6 +3,8 @@ the same check rejects), and a smoke run at tiny settings."""
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from pathlib import Path
 
 import numpy as np
