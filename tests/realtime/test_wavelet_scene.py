@@ -97,3 +97,31 @@ def test_valid_neighbours_load(register, overrides):
     for key, value in overrides.items():
         if key.startswith("realtime.wavelet_prt."):
             assert d[key.rsplit(".", 1)[1]] == value
+
+
+def test_only_the_diffuse_lobe_is_transferred(register):
+    """A blend material's glossy lobe is not shadowed by the wavelet transfer: reported as unsimulated, as PRT's
+    (control: the same scene with PRT says the same, a diffuse-only scene says nothing of the kind)."""
+    from realtime.engine import technique
+
+    overrides = {"realtime.occlusion": "wavelet_prt", "objects.0.material.type": "blend",
+                 "objects.0.material.ks": [0.3, 0.3, 0.3], "objects.0.material.exponent": 50.0}
+    scene = wavelet_scene(**overrides)
+    assert "glossy occlusion" in technique.unsimulated_effects(scene)
+    prt = scene.with_overrides({"realtime.diffuse": "prt", "realtime.occlusion": "prt"})
+    assert "glossy occlusion" in technique.unsimulated_effects(prt)
+    assert not any("glossy" in e for e in technique.unsimulated_effects(wavelet_scene(
+        **{"realtime.occlusion": "wavelet_prt"})))
+
+
+def test_describe_reports_the_gather_only_with_bounces(register):
+    from realtime.engine import technique
+
+    scene = wavelet_scene(**{"realtime.occlusion": "wavelet_prt", "realtime.interreflection": "wavelet_prt",
+                             "realtime.wavelet_prt.bounces": 2, "realtime.wavelet_prt.rays": 64})
+    assert technique.describe(scene)["wavelet_prt"] == {"cube_size": 32, "terms": 256, "threshold": 1e-4,
+                                                        "rays": 64, "bounces": 2}
+    s = technique.declaration_of("diffuse", "wavelet_prt").effective_settings(scene)
+    assert (s.rays, s.bounces, s.shadowed) == (64, 2, True)
+    s0 = technique.declaration_of("diffuse", "wavelet_prt").effective_settings(wavelet_scene())
+    assert (s0.rays, s0.bounces, s0.shadowed) == (0, 0, False)  # no gather: no rays in the cache key

@@ -366,7 +366,9 @@ def _entry_problem(t: SparseTransfer, vertices: int, coefficients: int, channels
     return None
 
 
-def _load(path, vertices: list[int], coefficients: int, channels: int, traced: int | None):
+def _load(path, vertices: list[int], coefficients: int, channels: int):
+    """The transfers and metadata of a valid entry; None when missing. A corrupt entry, or one whose arrays mean
+    nothing for this transfer (`_entry_problem`), warns and returns None (recomputed)."""
     if not path.exists():
         return None
     try:
@@ -379,7 +381,9 @@ def _load(path, vertices: list[int], coefficients: int, channels: int, traced: i
         if not isinstance(meta, dict) or meta.get("version") != TRANSFER_VERSION:
             raise ValueError(f"version {meta.get('version') if isinstance(meta, dict) else meta!r}: this iblcheck "
                              f"reads version {TRANSFER_VERSION}")
-        sec = meta.get("seconds")
+        sec, traced = meta.get("seconds"), meta.get("rays_traced")
+        if isinstance(traced, bool) or not isinstance(traced, int) or traced < 0:
+            raise ValueError(f"rays_traced = {traced!r}: a count >= 0 is required")
         if isinstance(sec, bool) or not isinstance(sec, (int, float)) or not np.isfinite(sec) or sec < 0:
             raise ValueError(f"seconds = {sec!r}: a finite time >= 0 is required")
         out = []
@@ -420,7 +424,7 @@ def cached_transfer(objects: Sequence[TransferObject], cube_size: int, threshold
     key = transfer_key(objects, cube_size, threshold, rays_, bounces, shadowed, seed)
     folder = cache_dir() / "wavelet_prt"
     channels = 3 if bounces else 1
-    entry = _load(folder / f"{key}.npz", vertices, 6 * int(cube_size) ** 2, channels, None)
+    entry = _load(folder / f"{key}.npz", vertices, 6 * int(cube_size) ** 2, channels)
     if entry is not None:
         transfers, meta = entry
         cached, seconds, compute, traced = True, 0.0, float(meta["seconds"]), int(meta["rays_traced"])
