@@ -26,7 +26,14 @@ from collections.abc import Iterator
 from pathlib import Path
 from types import ModuleType
 
-from experiments.cli import compare_image_cmd, diagnose_cmd, export_cmd, image_manifest_cmd, render_cmd
+from experiments.cli import (
+    compare_image_cmd,
+    diagnose_cmd,
+    export_cmd,
+    image_manifest_cmd,
+    render_cmd,
+    voxel_storage_cmd,
+)
 from experiments.cli.inputs import UsageError, gate_options, load_scene, parse_axis, parse_list, parse_sets
 from experiments.measure.results import folder_lock, store_in
 from experiments.paper import registry
@@ -171,6 +178,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     diagnose_cmd.add_parser(sub)
     sub.choices["diagnose"].set_defaults(func=_cmd_diagnose)
+
+    voxel_storage_cmd.add_parser(sub)
 
     pa = sub.add_parser("paper", help="run the paper-style experiment suite (the main job)",
                         description="Run the paper's experiments E1 ... E12 in number order into OUT. Rows already "

@@ -424,7 +424,7 @@ _SCENE_SCHEMA: dict[str, dict[str, tuple]] = {
 #: table its chosen technique reads). A key added to the format later is listed here too.
 ADDED_KEYS = {
     "material": ("base_color", "metallic", "roughness"),
-    "realtime": ("split_sum", "renderer", "command"),
+    "realtime": ("split_sum", "renderer", "command", "wavelet_prt"),
 }
 
 

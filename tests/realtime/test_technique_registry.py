@@ -68,12 +68,12 @@ def plugins(monkeypatch):
 
 def test_builtins_are_registered_in_the_scene_formats_order():
     assert [reg.choices(e) for e in reg.EFFECT_KEYS] == [
-        ("sh", "irradiance_map", "lights", "prt"), ("box", "prefiltered", "split_sum", "lights"),
-        ("none", "shadow_maps", "prt", "vct"), ("none", "prt", "vct")]
+        ("sh", "irradiance_map", "lights", "prt", "wavelet_prt"), ("box", "prefiltered", "split_sum", "lights"),
+        ("none", "shadow_maps", "prt", "vct", "wavelet_prt"), ("none", "prt", "vct", "wavelet_prt")]
     decls = reg.declarations()
     assert all(d.builtin and d.distribution == "iblcheck" for d in decls) and not reg.broken()
     assert {d.entry_point for d in decls} == {"sh", "irradiance_map", "box", "prefiltered", "split_sum", "lights",
-                                                "shadow_maps", "prt", "vct"}
+                                                "shadow_maps", "prt", "vct", "wavelet_prt"}
     assert scene_model.SCHEMA["realtime"]["glossy"][1] == 'one of "box", "prefiltered", "split_sum", "lights"'
 
 
@@ -129,7 +129,7 @@ def test_a_bad_declaration_is_refused_in_one_line_and_the_builtins_still_work(pl
     assert "\n" not in message and message.startswith("technique plugin 'glow-plugin' (entry point "
                                                       "iblcheck.techniques:glow): ")
     assert says in message, message
-    assert len(reg.declarations()) == 13 and reg.lookup("diffuse", "sh").builtin
+    assert len(reg.declarations()) == 16 and reg.lookup("diffuse", "sh").builtin
     scene_model.load("builtin:sphere-diffuse").with_overrides({"realtime.diffuse": "irradiance_map"})
     with pytest.raises(PluginDeclarationError, match="glow-plugin"):  # choosing it is the error
         scene_model.load("builtin:sphere-diffuse").with_overrides({"realtime.diffuse": "glow"})

@@ -7,7 +7,9 @@ selection of its K largest area-weighted coefficients, and each vertex's sum.
                          float bits with a shared atomic counter, ties to the smaller index; the kept
                          coefficients compacted in index order, and a dense buffer (zeros except the K kept)
     wavelet_dot.comp     per vertex, for each kept index a binary search in the vertex's sorted index list
-                         (Ng et al.'s cost model: V x K searches of log2(nnz) reads)
+                         (Ng et al.'s cost model: K searches of log2(nnz) reads), or where that costs more than
+                         its nnz entries, a scan of them against the dense selected lighting: the same terms in
+                         the same order, min(K log2(nnz), nnz) reads per vertex
 
 The cube level read has face side cube_size (the engine's box chain of the level-0 cube; a cube_size above the
 level-0 face is refused by the scene, and here by ValueError).
@@ -111,6 +113,7 @@ class WaveletObject:
         self.irradiance = ctx.buffer(reserve=max(self.vertices, 1) * 16)
 
     def run(self, lighting: WaveletLighting) -> None:
+        lighting.dense.bind_to_storage_buffer(2)
         lighting.kept_index.bind_to_storage_buffer(3)
         lighting.kept_value.bind_to_storage_buffer(4)
         self.offsets.bind_to_storage_buffer(5)
