@@ -162,12 +162,15 @@ def test_furnace_render(register, tmp_path, monkeypatch, terms):  # noqa: F811 (
 @pytest.mark.parametrize("terms", [6144, 16])
 def test_render_reads_each_vertex_own_irradiance(register, tmp_path, monkeypatch, terms):  # noqa: F811 (the fixture)
     """The shading pass reads vertex v's sum by gl_VertexID: against PRT of order 8 (a separate technique whose
-    per-vertex E is SH irradiance) under a smooth sky, both interpolated alike, all terms agree to the quadrature
-    and SH truncation (median 1e-4, max 0.7 % at the horizon's edge: bounds 5e-4 and 1 %); a vertex read at another
-    index would be off by the sky's gradient. Control: K = 16 (a coarse lighting) is rejected by the same bounds."""
+    per-vertex E is SH irradiance) under a sky with a broad sun off every axis (30 degrees of radius, azimuth 70,
+    elevation 15, turned 40: no face or mirror of the cube looks like another), both interpolated alike, all terms
+    agree to the quadrature and SH truncation (median 1.8e-4, max 0.12 %: bounds 5e-4 and 1 %); a vertex read at
+    another index, or a precompute whose texel directions swap or mirror a face (tried by hand: median 3-18 %),
+    would be off by the sky's gradient. Control: K = 16 (a coarse lighting) is rejected by the same bounds."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path))
-    base = {"objects.*.resolution": 24, "environment.map": "builtin:sky", "environment.params": {"sun": 0.0},
-            "environment.rotation_deg": 40.0}
+    base = {"objects.*.resolution": 24, "environment.map": "builtin:sky", "environment.rotation_deg": 40.0,
+            "environment.params": {"sun": 0.5, "sun_radius_deg": 30.0, "sun_elevation_deg": 15.0,
+                                   "sun_azimuth_deg": 70.0}}
     prt = realtime.render(small("builtin:sphere-diffuse", **base, **{"realtime.diffuse": "prt",
                                                                        "realtime.prt.order": 8}))
     scene = small("builtin:sphere-diffuse", **base, **{"realtime.diffuse": "wavelet_prt",

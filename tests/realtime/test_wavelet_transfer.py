@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import scenes
+from realtime.techniques.irradiance_map.irradiance_convolution import irradiance_cube_numpy
 from realtime.techniques.wavelet_prt import haar
 from realtime.techniques.wavelet_prt import wavelet_transfer as wt
 from realtime.techniques.wavelet_prt.wavelet_prt import transfer_objects
@@ -111,6 +112,23 @@ def test_a_wrong_texel_order_is_caught(sphere_on_plane, wrong):
     got = full(transfers, np.ascontiguousarray(bad))
     scale = max(np.abs(w).max() for w in want)
     assert max(np.abs(g - w).max() for g, w in zip(got, want, strict=True)) > 1e-3 * scale
+
+
+@pytest.mark.parametrize("wrong", [None, "turned lighting"])
+def test_unshadowed_transfer_is_the_irradiance_map_of_the_same_cube(wrong):
+    """No occlusion: at normals n equal to the texel directions of an output cube, E(n) is the irradiance map
+    technique's float64 reference of the same cube level (irradiance_convolution.irradiance_cube_numpy, the plain
+    sum L max(n.w, 0) dOmega). Control: the lighting turned by a face (+X's texels on +Z) disagrees."""
+    size, out = 16, 4
+    faces = cubemap.from_equirect(scenes.load("builtin:sphere-diffuse").environment.radiance(), size, 30.0)
+    normals = cubemap.texel_directions(out).reshape(-1, 3)
+    v = len(normals)
+    obj = wt.TransferObject(positions=np.zeros((v, 3)) + np.arange(v)[:, None] * 1e-3, normals=normals,
+                            indices=np.array([[0, 1, 2]]), kd=(0.5, 0.5, 0.5))
+    lighting = faces[[4, 1, 2, 3, 0, 5]] if wrong else faces
+    (got,) = full(wt.transfer([obj], size, 0.0, 1, 0, False), lighting)
+    want = irradiance_cube_numpy(faces, out, normalize=False).reshape(-1, 3)
+    assert np.allclose(got, want, rtol=0, atol=2e-6 * np.abs(want).max()) == (wrong is None)
 
 
 @pytest.mark.parametrize("shadowed", [False, True])
@@ -225,9 +243,33 @@ def test_cache_round_trip_and_key(monkeypatch, tmp_path):
     for a, b in zip(first, again, strict=True):
         for name in ("offsets", "indices", "values"):
             assert np.array_equal(getattr(a, name), getattr(b, name))
-    base = wt.transfer_key(objects, 8, 1e-4, 1, 0, True)
-    assert len({base, wt.transfer_key(objects, 16, 1e-4, 1, 0, True), wt.transfer_key(objects, 8, 1e-3, 1, 0, True),
-                wt.transfer_key(objects, 8, 1e-4, 1, 0, False), wt.transfer_key(objects, 8, 1e-4, 2, 1, True)}) == 5
+
+
+def _changed(obj, **fields):
+    return wt.TransferObject(**{"positions": obj.positions, "normals": obj.normals, "indices": obj.indices,
+                                "kd": obj.kd, "two_sided": obj.two_sided, **fields})
+
+
+def test_the_cache_key_changes_with_what_changes_the_transfer_and_only_that():
+    """Every input the transfer depends on moves the key; the albedo, the gather's rays and its seed move it only
+    with bounces (without, the transfer is the same array: checked, the control of the 'only')."""
+    _, objects = scene_objects("builtin:sphere-diffuse", 6)
+    o = objects[0]
+    key = wt.transfer_key
+    bounced = key(objects, 8, 1e-4, 4, 1, True)
+    moved = [key(objects, 16, 1e-4, 1, 0, True), key(objects, 8, 1e-3, 1, 0, True), key(objects, 8, 1e-4, 1, 0, False),
+             bounced, key([_changed(o, positions=o.positions + 1e-6)], 8, 1e-4, 1, 0, True),
+             key([_changed(o, normals=-o.normals)], 8, 1e-4, 1, 0, True),
+             key([_changed(o, indices=o.indices[:, ::-1])], 8, 1e-4, 1, 0, True),
+             key([_changed(o, kd=(0.1, 0.2, 0.3))], 8, 1e-4, 4, 1, True), key(objects, 8, 1e-4, 8, 1, True),
+             key(objects, 8, 1e-4, 4, 1, True, seed=1), key(objects, 8, 1e-4, 4, 2, True)]
+    base = key(objects, 8, 1e-4, 1, 0, True)
+    assert len({base, *moved}) == 1 + len(moved)
+    other_kd = [_changed(o, kd=(0.1, 0.2, 0.3))]
+    assert key(other_kd, 8, 1e-4, 7, 0, True, seed=3) == base  # no bounces: albedo, rays, seed do not enter
+    a, b = wt.transfer(objects, 8, 1e-4, 1, 0, True), wt.transfer(other_kd, 8, 1e-4, 7, 0, True, seed=3)
+    assert all(np.array_equal(x.values, y.values) and np.array_equal(x.indices, y.indices)
+               for x, y in zip(a, b, strict=True))
 
 
 @pytest.mark.parametrize("damage", ["garbage", "truncated", "other_array", "unsorted"])

@@ -6,7 +6,7 @@
 //   search: for each kept index (in increasing order) a binary search among the vertex's entries, starting where
 //           the previous one ended: K x log2(nnz) reads (Ng et al.'s cost model, best for small K);
 //   scan:   each stored entry reads the dense selected lighting (zeros except the K kept): nnz reads.
-// Cost per vertex: min(K (log2(nnz) + 1), nnz).
+// Cost per vertex: min(K (floor(log2(nnz)) + 2), nnz) reads, the search's count bounded from above.
 // CHANNELS (1 or 3): values per stored entry (3 when bounces make the transfer depend on the colour).
 layout(local_size_x = 64) in;
 layout(std430, binding = 2) readonly buffer Dense { vec4 dense[]; };  // N: the kept coefficients, zeros elsewhere

@@ -8,8 +8,8 @@ V(x, w_t) max(0, n . w_t) dOmega_t (plus bounces), Haar-transformed per face and
 (wavelet_transfer.py: the storage rule and its bytes; render meta reports `bytes_per_vertex`).
 Every frame (timed as `filter`, like PRT's SH projection; wavelet_gpu.py): the environment cube's box level of face
 cube_size is Haar-transformed, its `terms` (K) coefficients of largest area-weighted magnitude are kept (haar.py:
-the key, the rule for ties), and per vertex E = sum over the K kept of l_j w_v[j] (a binary search of each kept
-index in the vertex's sorted entries: V x K searches). The shading pass interpolates E across the triangle
+the key, the rule for ties), and per vertex E = sum over the K kept of l_j w_v[j] (wavelet_dot.comp: per vertex
+the cheaper of K binary searches in its sorted entries and a scan of its entries). The shading pass interpolates E across the triangle
 (wavelet_vertex.glsl) and multiplies by kd / pi (irradiance transfer, as PRT's).
 
 With K = 6 cube_size^2 and threshold 0 it is the texel sum of the transfer times the radiance (orthonormal Haar:
@@ -47,7 +47,7 @@ class WaveletDiffuse(Technique):
         self.info: dict = {}
 
     def chain_level(self, frame: Frame) -> int | None:
-        return None  # the Haar levels read the box chain from cube_size down to the 2x2 faces
+        return None  # the whole box chain (the Haar levels read it from cube_size down to the 2x2 faces)
 
     def prepare(self, frame: Frame) -> None:
         s = self.settings

@@ -30,10 +30,11 @@ the sum), and the worst-case output (every coefficient stored); a configuration 
 (half the physical memory) is refused before anything is traced, with the bytes it needs.
 
 Cache (`cached_transfer`): `cache_dir() / "wavelet_prt" / "<key>.npz"`, key = SHA-256 of every object's
-positions / normals / indices (dtype, shape, bytes), kd, two_sided, cube_size, threshold, rays, bounces,
-shadowed, seed and TRANSFER_VERSION; atomic writes (scenes.storage.disk_cache.write_npz), a SHA-256 of the
-arrays in each entry checked on read, and the arrays checked for meaning (CSR shapes, sorted indices in
-range, finite values); a corrupt entry is recomputed with a CacheWarning, an unwritable folder warns.
+positions / normals / indices (dtype, shape, bytes), cube_size, threshold, bounces, shadowed and TRANSFER_VERSION,
+and with bounces > 0 (the only part they enter) each object's kd and the gather's rays and seed; atomic writes
+(scenes.storage.disk_cache.write_npz), a SHA-256 of the arrays in each entry checked on read, and the arrays
+checked for meaning (CSR shapes, sorted indices in range, finite values); a corrupt entry is recomputed with a
+CacheWarning, an unwritable folder warns.
 """
 
 from __future__ import annotations
@@ -328,9 +329,9 @@ def transfer_key(objects: Sequence[TransferObject], cube_size: int, threshold: f
     """Hex SHA-256 over everything that changes the transfer (module docstring)."""
     h = hashlib.sha256()
     desc = {"kind": "wavelet_prt", "version": TRANSFER_VERSION, "cube_size": int(cube_size),
-            "threshold": float(threshold), "rays": int(rays_), "bounces": int(bounces), "shadowed": bool(shadowed),
-            "seed": int(seed),
-            "objects": [{"kd": [float(c) for c in o.kd], "two_sided": bool(o.two_sided)} for o in objects]}
+            "threshold": float(threshold), "bounces": int(bounces), "shadowed": bool(shadowed)}
+    if bounces > 0:  # the albedos, the gather's rays and its seed enter only the bounces
+        desc.update(rays=int(rays_), seed=int(seed), kd=[[float(c) for c in o.kd] for o in objects])
     h.update(json.dumps(desc, sort_keys=True).encode())
     for o in objects:
         for a in (o.positions, o.normals, o.indices):
