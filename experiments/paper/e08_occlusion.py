@@ -9,7 +9,9 @@ give) against the frame's per-frame milliseconds and the precomputation's second
     shadow maps (realtime/techniques/shadow_maps/shadow_maps.py; 256 and 1024 texels, as far as the 1 GiB map budget
     allows);
     a blend material takes both lobes from the array, so the maps shadow its highlights too;
-(c) precomputed radiance transfer (realtime/techniques/prt/prt.py): SH order 2/3/4 x rays 64/256/1024 x bounces 0/1/2.
+(c) precomputed radiance transfer (realtime/techniques/prt/prt.py): SH order 2/3/4 x rays 64/256/1024 x bounces 0/1/2;
+(d) sharp shadows (e08_sharp_shadows): SH PRT of orders 2..8 against wavelet PRT and shadow maps under a broad probe,
+    a probe of small bright sources and the sun sky.
 
 The light array's error is split in two with references of the array itself (Mitsuba, the same N
 directional emitters): the array against the environment (discretisation: both path-traced, each
@@ -26,7 +28,9 @@ import numpy as np
 import scenes
 from experiments.measure import convergence, metrics
 from experiments.measure.results import ResultRow
+from experiments.paper import e08_sharp_shadows as sharp
 from experiments.paper.context import Context
+from experiments.paper.e08_overrides import fits, lights_ov, prt_ov
 from experiments.publish import plots, report
 from experiments.publish.plots import frame_ms
 from experiments.publish.report import Section, f2, f3, unbiased_cell
@@ -34,7 +38,6 @@ from groundtruth.pathtracer import reference
 from realtime.techniques.prt.prt import transfer_objects
 from realtime.techniques.prt.prt_transfer import cached_transfer
 from realtime.techniques.prt.settings import effective_settings
-from scenes.model.scene import MAX_SHADOW_TEXELS
 
 NUMBER = 8
 TITLE = "E8 what shadows and bounces cost"
@@ -54,39 +57,17 @@ class Settings:
     split_arrays: tuple[tuple[str, int], ...]  # arrays whose error is split with references of the array
     frames: int  # timed frames per configuration (medians); shadow maps of 642 lights take ~1 s a frame here
     max_spp: int
+    sharp: sharp.SharpSettings  # the sharp-shadow part (e08_sharp_shadows)
 
 
 QUICK = Settings(geodesic=(12, 42, 162), median_cut=(16, 64), shadow_sizes=(256,), prt_orders=(2, 4),
                    prt_rays=(64, 256), prt_bounces=(0, 1), split_arrays=(("geodesic", 42), ("median_cut", 64)),
-                   frames=3, max_spp=256)
+                   frames=3, max_spp=256, sharp=sharp.QUICK)
 FULL = Settings(geodesic=(4, 12, 42, 162, 642), median_cut=(4, 16, 64, 256), shadow_sizes=(256, 1024),
                   prt_orders=(2, 3, 4), prt_rays=(64, 256, 1024), prt_bounces=(0, 1, 2),
                   split_arrays=(("geodesic", 42), ("geodesic", 162), ("geodesic", 642), ("median_cut", 64),
                                 ("median_cut", 256)),
-                  frames=5, max_spp=1024)
-
-
-def lights_ov(scene, placement: str, count: int, shadow: int | None = None) -> dict:
-    """The light array for every lobe the scene has (a blend: diffuse and glossy), with shadow maps."""
-    ov = {"realtime.lights.placement": placement, "realtime.lights.count": count}
-    for lobe in ("diffuse", "glossy"):
-        if lobe in scene.effects:
-            ov[f"realtime.{lobe}"] = "lights"
-    if shadow:
-        ov.update({"realtime.occlusion": "shadow_maps", "realtime.lights.shadow_map_size": shadow})
-    return ov
-
-
-def prt_ov(order: int, rays: int, bounces: int) -> dict:
-    ov = {"realtime.diffuse": "prt", "realtime.occlusion": "prt", "realtime.prt.order": order,
-          "realtime.prt.rays": rays}
-    if bounces:
-        ov.update({"realtime.interreflection": "prt", "realtime.prt.bounces": bounces})
-    return ov
-
-
-def fits(count: int, size: int) -> bool:
-    return count * size * size <= MAX_SHADOW_TEXELS
+                  frames=5, max_spp=1024, sharp=sharp.FULL)
 
 
 def configs(scene, s: Settings) -> list[dict]:
@@ -101,10 +82,10 @@ def configs(scene, s: Settings) -> list[dict]:
 
 
 def count_steps(settings: Settings) -> int:
-    """Progress steps of `run`: per scene its spp ladder, one per row, two per split array."""
+    """Progress steps of `run`: per scene its spp ladder, one per row, two per split array; the sharp-shadow part's."""
     s = settings
     per = [len(configs(scenes.load(spec), s)) + 1 + 2 * len(s.split_arrays) for _, spec in SCENES]
-    return sum(per)
+    return sum(per) + sharp.count_steps(s.sharp)
 
 
 def family(r: ResultRow) -> str:
@@ -214,11 +195,13 @@ def run(context: Context, settings: Settings) -> Section:
             "with exact shadows and bounces; 'shadow maps vs exact visibility' compares the real-time image "
             "with shadow maps with Mitsuba's direct lighting from the same array: what the maps' resolution, "
             "filtering and bias cost.")
+    sharp_blocks, sharp_md, sharp_figures = sharp.section(context, s.sharp)
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
-          + report.md_table(split_header, splits) + "\n\n" + note)
+          + report.md_table(split_header, splits) + "\n\n" + note + "\n\n" + sharp_md)
     blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E8"),
-              report.figure(heat, "E8 heat maps"), report.table(split_header, splits), report.paragraph(note)]
-    return Section(TITLE, blocks, md, [figure, heat])
+              report.figure(heat, "E8 heat maps"), report.table(split_header, splits), report.paragraph(note),
+              *sharp_blocks]
+    return Section(TITLE, blocks, md, [figure, heat, *sharp_figures])
 
 
 def with_prt_seconds(context: Context, row: ResultRow) -> ResultRow:
