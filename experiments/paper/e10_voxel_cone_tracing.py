@@ -18,6 +18,10 @@ The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the ir
 just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak), at every
 resolution, at the grid's own placement and over placements shifted by fractions of a voxel (the leak
 depends on where the walls fall in the coarse texels).
+The seed's storage comparison (e10_voxel_storage.py): the cascaded texture against a dense 3D texture, a sparse
+voxel octree, a Morton-ordered octree and a sparse voxel DAG of the same voxels, on procedural atriums of growing
+size (up to 2e6 triangles) at 32^3 ... 512^3: voxel count, build time and memory, and whether the seed's claim
+(the cascades' advantage grows with resolution and scene size) holds, computed from the ratios.
 """
 
 from __future__ import annotations
@@ -31,6 +35,7 @@ import realtime
 import scenes
 from experiments.measure import convergence
 from experiments.measure.results import ResultRow
+from experiments.paper import e10_voxel_storage
 from experiments.paper.context import Context
 from experiments.paper.e08_occlusion import lights_ov, prt_ov
 from experiments.publish import plots, report
@@ -58,16 +63,17 @@ class Settings:
     leak_resolutions: tuple[int, ...]
     leak_offsets: int  # grid placements of the thin-wall leak (the first is the grid's own)
     ladder: bool  # PRT and light-array rows beside VCT's
+    storage: e10_voxel_storage.Settings  # the seed's storage comparison on the procedural atrium
 
 
 QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy_resolutions=(32, 64),
-                 leak_resolutions=(32, 64), leak_offsets=2, ladder=True)
+                 leak_resolutions=(32, 64), leak_offsets=2, ladder=True, storage=e10_voxel_storage.QUICK)
 # a subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 takes about 15 s a
 # frame on llvmpipe, its injection most of it): every resolution at one cascade, 2 and 3 cascades at 64^3, and 4
 # and 9 cones at 64^3 x 2; one timed frame after one warm-up frame
 FULL = Settings(grid=((32, 1, 6), (64, 1, 6), (128, 1, 6), (64, 2, 6), (64, 3, 6), (64, 2, 4), (64, 2, 9)),
                 frames=1, bounces=(1, 2, 3), energy_resolutions=(32, 64, 128), leak_resolutions=(32, 64, 128),
-                leak_offsets=5, ladder=True)
+                leak_offsets=5, ladder=True, storage=e10_voxel_storage.FULL)
 #: the ladder's rows: PRT of order 4, 256 rays, one bounce (diffuse scenes only: PRT transfers diffuse light);
 #: 42 geodesic lights with 1024^2 shadow maps
 PRT_LADDER = (4, 256, 1)
@@ -99,8 +105,10 @@ def configs(s: Settings, spec: str) -> list[dict]:
 
 
 def count_steps(settings: Settings) -> int:
-    """Progress steps of `run`: per scene its spp ladder, one per row and the energy tables; the leak."""
-    return sum(len(configs(settings, spec)) + 2 for _, spec in SCENES) + 1
+    """Progress steps of `run`: per scene its spp ladder, one per row and the energy tables; the leak; the
+    storage comparison's atriums x resolutions."""
+    return (sum(len(configs(settings, spec)) + 2 for _, spec in SCENES) + 1
+            + e10_voxel_storage.count_steps(settings.storage))
 
 
 #: the configurations of every scene, in the order of the figures
@@ -266,6 +274,8 @@ def run(context: Context, settings: Settings) -> Section:
         context.progress()
     leak = thin_wall_leak(s.leak_resolutions, offsets=s.leak_offsets)
     context.progress()
+    storage = e10_voxel_storage.run(context.out, s.storage, step=context.progress)
+    storage_figure = e10_voxel_storage.FIGURE
     figure, heat = "figures/e10_vct.png", "figures/e10_heat.png"
     plot(per_scene, context.out / figure)
     plot_heat(per_scene, context.out, context.out / heat)
@@ -321,11 +331,16 @@ def run(context: Context, settings: Settings) -> Section:
             f"{LIGHTS_LADDER[1]} {LIGHTS_LADDER[0]} lights with {LIGHTS_LADDER[2]}^2 shadow maps.")
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
           + report.md_table(e_header, e_rows) + "\n\n" + report.md_table(r_header, r_rows) + "\n\n"
-          + report.md_table(b_header, b_rows) + "\n\n" + report.md_table(l_header, l_rows) + "\n\n" + note)
+          + report.md_table(b_header, b_rows) + "\n\n" + report.md_table(l_header, l_rows) + "\n\n" + note
+          + "\n\n" + "\n".join(f"- {line}" for line in storage.lines) + "\n\n"
+          + report.md_table(storage.header, storage.rows) + "\n\n"
+          + report.md_table(storage.size_header, storage.size_rows))
     blocks = [report.bullets(findings), report.table(header, table), report.figure(figure, "E10"),
               report.figure(heat, "E10 heat maps"), report.table(e_header, e_rows), report.table(r_header, r_rows),
-              report.table(b_header, b_rows), report.table(l_header, l_rows), report.paragraph(note)]
-    return Section(TITLE, blocks, md, [figure, heat])
+              report.table(b_header, b_rows), report.table(l_header, l_rows), report.paragraph(note),
+              report.bullets(storage.lines), report.table(storage.header, storage.rows),
+              report.table(storage.size_header, storage.size_rows), report.figure(storage_figure, "E10 voxel storage")]
+    return Section(TITLE, blocks, md, [figure, heat, storage_figure])
 
 
 def best(rows: list[ResultRow], which: str) -> ResultRow | None:

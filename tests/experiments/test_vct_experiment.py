@@ -29,8 +29,10 @@ def test_configs_are_direct_then_occlusion_and_interreflection_per_setting_then_
 
 def test_count_steps_matches_the_progress_calls():
     s = e10.QUICK
-    # per scene: the convergence curve, one row per configuration, the energy tables; then the leak
-    assert e10.count_steps(s) == sum(1 + len(e10.configs(s, spec)) + 1 for _, spec in e10.SCENES) + 1
+    # per scene: the convergence curve, one row per configuration, the energy tables; then the leak; then the
+    # storage comparison, one step per atrium and resolution
+    storage = len(s.storage.sizes) * len(s.storage.resolutions)
+    assert e10.count_steps(s) == sum(1 + len(e10.configs(s, spec)) + 1 for _, spec in e10.SCENES) + 1 + storage
 
 
 def test_memory_cascades_against_one_texture():
