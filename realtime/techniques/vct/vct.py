@@ -18,7 +18,10 @@ Every frame (timed `voxelize`, its mips as `mip`):
    (kd, ks, exponent, f0, Schlick flag: `reflectance_of`) and per face direction a_f the weight
    max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
    would face nowhere);
-2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
+2. coverage (vct_inject.comp, inject = 0): each face's alpha = the surface's coverage of the voxel's
+   cross-section along the face's axis (|n_a| / |n|_inf: a plane is transparent along itself), then its
+   mips; the same coverages into the column texture (one channel per axis), max-mipped
+   (vct_column_mip.comp): the most covered column of a texel, the cones' finer read;
 3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
    (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
    `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
@@ -74,8 +77,12 @@ INJECT_LOD_MIN = 1.0
 INJECT_STEP_FACTOR = 1.0
 #: texture units of the six face textures (1, 2, 5 are the environment's, the prefiltered chain's, shadows')
 FACE_UNIT0 = 8
+#: texture unit of the column texture (after the six faces)
+COLUMN_UNIT = FACE_UNIT0 + 6
+#: image unit the coverage pass writes the column texture through (0..5: the faces)
+COLUMN_IMAGE = 6
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
-BYTES_PER_VOXEL = 6 * 8  # six RGBA16F faces
+BYTES_PER_VOXEL = 7 * 8  # six RGBA16F faces and the RGBA16F column texture
 #: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
 VOXEL_INTS = 34
 FACE_INTS0 = 10
@@ -175,11 +182,15 @@ class VoxelScene:
             tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
             self.faces.append(tex)
+        self.columns = ctx.texture3d(size, 4, dtype="f2")
+        self.columns.build_mipmaps()
+        self.columns.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         self.mip_levels = self.grid.levels
         here = __package__
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
         self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
+        self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         self.probe_prog = None
         self.cone_prog = None
         self.updated_frame: int | None = None
@@ -235,6 +246,8 @@ class VoxelScene:
         sh_buffer.bind_to_storage_buffer(2)
         for f, tex in enumerate(self.faces):
             tex.bind_to_image(f, read=False, write=True, level=0)
+        if mode == 0:
+            self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
         set_uniform(p, "lod_min", INJECT_LOD_MIN)
@@ -244,6 +257,8 @@ class VoxelScene:
         self.ctx.memory_barrier()
 
     def build_mips(self) -> None:
+        """The six faces' anisotropic mips and the column texture's."""
+        self.build_column_mips()
         p = self.mip_prog
         R = self.resolution
         for level in range(1, self.mip_levels):
@@ -257,11 +272,23 @@ class VoxelScene:
                 p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
             self.ctx.memory_barrier()
 
+    def build_column_mips(self) -> None:
+        p = self.column_mip_prog
+        for level in range(1, self.mip_levels):
+            r = self.resolution >> level
+            p["dst_size"] = (r, r, r * self.count)
+            self.columns.bind_to_image(0, read=True, write=False, level=level - 1)
+            self.columns.bind_to_image(1, read=False, write=True, level=level)
+            p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+
     # -- tracing uniforms -----------------------------------------------------------------------
     def bind_trace(self, prog: moderngl.Program) -> None:
         for f, tex in enumerate(self.faces):
             tex.use(FACE_UNIT0 + f)
             set_uniform(prog, f"vct_face_{FACE_NAMES[f]}", FACE_UNIT0 + f)
+        self.columns.use(COLUMN_UNIT)
+        set_uniform(prog, "vct_columns", COLUMN_UNIT)
         g = self.grid
         set_uniform(prog, "vct_centre", g.centre)
         set_uniform(prog, "vct_half_extent", g.half_extent)
@@ -313,6 +340,10 @@ class VoxelScene:
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
             tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
+        # the column texture along each axis: the larger opacity of its two faces
+        occ = np.zeros(faces.shape[1:], "f4")
+        occ[..., :3] = np.maximum(faces[0::2, ..., 3], faces[1::2, ..., 3]).transpose(1, 2, 3, 4, 0)
+        self.columns.write(np.ascontiguousarray(occ.transpose(0, 3, 2, 1, 4).reshape(-1), dtype="f2").tobytes())
 
     def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
         """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""
@@ -375,8 +406,8 @@ class VoxelScene:
                         "bounces": self.bounces}}
 
     def release(self) -> None:
-        for r in [self.triangles, *self.scratch, *self.faces, self.voxelize_prog, self.inject_prog,
-                  self.mip_prog, self.probe_prog, self.cone_prog]:
+        for r in [self.triangles, *self.scratch, *self.faces, self.columns, self.voxelize_prog, self.inject_prog,
+                  self.mip_prog, self.column_mip_prog, self.probe_prog, self.cone_prog]:
             if r is not None:
                 r.release()
 
