@@ -26,18 +26,19 @@ Every frame (timed `voxelize`, its mips as `mip`):
    (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
    `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
    the SH9 radiance convolved with the Phong lobe about the mirror direction r; V the diffuse cones'
-   visibility through the voxels themselves, mips >= 1: level 0 is being written). Faced faces carry the
-   full radiance, faces in the surface's plane the faced faces' mean (a thin two-sided wall's: the darker
-   side's), faces behind it none (vct_inject.comp derives each). Then the radiance mips. `bounces` = k
+   visibility through the voxels themselves: the direct pass reads every level, the bounce passes mips >= 1, as
+   level 0's radiance is being written). Faced faces carry the full radiance, the others none, each times
+   its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
 diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
 from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
 through the paper's reflectance. Cones read texels nearest (mip-linear), combine the axes' optical
-depths (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a
-medium's transmittance) and keep the opacity of the finer level whose texel is the step (vct_trace.glsl
-derives both: no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
+depths weighted by |d_a| (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not
+change a medium's transmittance, and a layer crossed at any angle keeps its optical depth) and keep the
+smaller transmittance of that and the finer level's whose texel is the step, read from the column texture
+(the texel's most covered column: vct_trace.glsl derives both; no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
 START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
 self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
 the level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it
@@ -45,8 +46,8 @@ leaves (derived for a trilinear lookup: the coarser level's texel at most (heigh
 nearest lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every
 diffuse cone of 4, 6 or 9, so `diffuse_cones` sets their directions and weights, not their levels;
 narrower cones (the glossy one) keep their own width. An occluder on a capped cone's axis reads as filling
-the whole cone, and a wall parallel to a cone blocks it once per texel (tests/realtime/test_vct_gpu.py
-measures the over-occlusion under a sphere). The cones' cost is inside `draw`; E10 reports `trace` as
+the whole cone (tests/realtime/test_vct_gpu.py measures the over-occlusion under a sphere). A wall parallel
+to a cone does not block it (its coverage along its own plane is 0). The cones' cost is inside `draw`; E10 reports `trace` as
 draw minus the same scene's direct-only draw.
 """
 
@@ -70,7 +71,11 @@ NORMAL_OFFSET_VOXELS = 1.5
 START_OFFSET_VOXELS = 1.0
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
-#: injection's visibility cones read mips >= this (level 0 is being written in the same pass)
+#: the bounce passes' cones read mips >= this: they gather the previous bounce's radiance from level 0's rgb,
+#: which the same pass overwrites. The direct pass reads level 0 too: its cones use only the opacities, which
+#: the coverage pass wrote and it rewrites unchanged (a level-1 texel near the surface holds the surface's
+#: own layer, which then occludes its own cones: cornell-open's indirect energy at 32^3 goes from 0.81 to 0.86 of
+#: the path tracer's one bounce with level 0 read)
 INJECT_LOD_MIN = 1.0
 #: injection's cones step this many times the shading's (`step`); 2 halves the injection's time on cornell-open but
 #: darkens the injected light by a fifth (Beer-Lambert over fewer samples), so it stays 1
@@ -250,7 +255,7 @@ class VoxelScene:
             self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
-        set_uniform(p, "lod_min", INJECT_LOD_MIN)
+        set_uniform(p, "lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
         set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
         g = groups(self.resolution, 4)
         p.run(g, g, g)

@@ -11,7 +11,7 @@
 //   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the SH9 radiance
 //   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N, whose band factors are
 //   Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3); V the diffuse cones'
-//   visibility through the voxels themselves (mips >= 1 only: level 0 is being written; the glossy lobe
+//   visibility through the voxels themselves (the bounce passes: mips >= 1 only, level 0's radiance is being written; the glossy lobe
 //   shares it), E_b what the same cones gather from the previous bounce (inject = 2; under the glossy
 //   lobe taken as uniform: a lobe of albedo ks under radiance E_b / pi reflects ks E_b / pi). A viewer
 //   along -a_f looking at a plane crossing the voxel hits its front whenever a_f . n > 0, so the face
