@@ -324,11 +324,18 @@ class VoxelScene:
 
     def read_faces(self, level: int = 0) -> np.ndarray:
         """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
+        return self._read_textures(self.faces, level)
+
+    def read_columns(self, level: int = 0) -> np.ndarray:
+        """(C, R_L, R_L, R_L, 3) float32 indexed [cascade, x, y, z, axis]: the column texture at one mip level."""
+        return self._read_textures([self.columns], level)[0, ..., :3]
+
+    def _read_textures(self, textures, level: int) -> np.ndarray:
         r = self.resolution >> level
         prog = self.ctx.compute_shader(shader_source("vct_dump.comp", package=__package__))
         buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
         out = []
-        for tex in self.faces:
+        for tex in textures:
             tex.bind_to_image(0, read=True, write=False, level=level)
             buf.bind_to_storage_buffer(1)
             prog["size"] = (r, r, r * self.count)
