@@ -13,7 +13,10 @@
   kd / pi E(n) into its upper face and gathers nothing;
 - the level a cone sample reads is the one vct_math.sample_lod predicts (level-coded mips);
 - a wall lit on one side reads alike in all six orientations, and its dark side gathers nothing;
-- the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light.
+- the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light;
+- opacity: a tilted plane covers each axis by |n_a| / |n|_inf; layers of normal y cut a cone by the same
+  product at any angle; a cone alongside a wall passes; the column texture keeps a texel's most covered
+  column, and the finer read counts its own texel's length; a closed thin-walled box leaks under 1 %.
 """
 
 from __future__ import annotations
@@ -436,21 +439,25 @@ def test_wall_lit_on_one_side_reads_alike_in_six_orientations(ctx, wall_along_y,
     assert np.allclose(r, wall_along_y, rtol=0.01, atol=1e-4), (r, wall_along_y)
 
 
-def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx):
+@pytest.mark.parametrize("offset", [0.5, 1.5, 0.0, 1.0])
+def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx, offset):
     """A plane alone under the sky: its voxels' upper face holds kd / pi E(up) (E the SH9 irradiance of the
     environment, read back from the environment filter: the injection's visibility is 1 for an open plane,
     fp16 and a visibility down to 0.99 give the tolerance), its lower face black, both opaque (the plane
     covers the voxel along y), its side faces empty (it covers nothing along x or z); and a point on it sees
-    the whole sky (V within [0.99, 1]) and gathers no radiance (it sees no voxel's lit face)."""
+    the whole sky (V within [0.99, 1]) and gathers no radiance (it sees no voxel's lit face). The plane lies
+    `offset` voxels above the grid's centre: in a voxel's middle or on a boundary (two layers), and at either
+    parity of the level-1 texels (whose column must not hide the plane's sky from its own injection)."""
     scene = scenes.load("builtin:sphere-on-plane")
     plane = scene.objects[1]  # y = 0, half size 2, kd
     env = sh_of(ctx, scene)
-    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
+    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, offset * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
     _, M = env.read_sh()
     n4 = np.array([0.0, 1.0, 0.0, 1.0])
     sky = np.array([n4 @ M[c] @ n4 for c in range(3)])
     faces = vs.read_faces(0)[:, 0]
-    layer = faces[:, 8:24, 15, 8:24]  # the plane's layer away from its edges
+    top = int(np.nonzero(vs.occupied()[16].any(axis=1))[0].max())  # one layer or two (on a boundary): the upper
+    layer = faces[:, 8:24, top, 8:24]  # the plane's layer away from its edges
     want = np.asarray(plane.material.kd) / math.pi * sky
     py, ny = layer[2].reshape(-1, 4), layer[3].reshape(-1, 4)
     assert (py[:, 3] == 1.0).all() and (ny[:, 3] == 1.0).all()
@@ -660,3 +667,58 @@ def test_cone_alongside_a_wall_is_not_blocked_by_it(ctx, coverage):
         assert r[3] < 0.02, r
     else:
         assert r[3] > 0.5, r
+
+
+@pytest.mark.parametrize("cos_n", [1.0, 0.6, 0.35])
+def test_layers_cut_an_oblique_cone_alike_at_any_angle(ctx, cos_n):
+    """Six one-voxel layers of normal y, each covering 0.3 of a voxel's cross-section along y and nothing along
+    x or z (surfaces' coverages), crossed by a thin cone (level 0) at cos_n to their normal: the axis crosses
+    each layer once, so T = 0.7^6 whatever the angle; the nearest lookup may count one step more or less in
+    the slab (one step's optical depth |d_y| step -ln 0.7, over each of its two ends). Control: the optical
+    depths weighted by the squared cosines give 0.7^(6 cos_n), outside the tolerance below cos_n = 0.6."""
+    res, alpha, thick = 32, 0.3, 6
+    vs = blank_voxels(ctx, res)
+    h0 = vs.grid.voxel_size
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    faces[2:4, 0, :, 12:12 + thick, :, 3] = alpha
+    vs.write_level0(faces)
+    vs.build_mips()
+    d = np.array([math.sqrt(1.0 - cos_n ** 2), cos_n, 0.0])
+    slab_mid = (12 + thick / 2 - 16) * h0
+    origin = np.array([0.5, slab_mid, -0.021]) - d * (thick / 2 + 3.3) * h0 / cos_n
+    up = np.array([0.0, 1.0, 0.0])
+    r = vs.trace_cone(origin[None], d[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * up)[None],
+                      up[None])[0]
+    vs.release()
+    got = math.log(1.0 - r[3])
+    want = thick * math.log(1.0 - alpha)
+    tol = 2 * cos_n * 0.5 * -math.log(1.0 - alpha) * 1.01 + 0.01
+    assert abs(got - want) <= tol, (got, want, tol)
+    if cos_n < 0.6:
+        assert abs(thick * cos_n * math.log(1.0 - alpha) - want) > tol
+
+
+def test_finer_read_counts_its_texel_once_per_crossing(ctx):
+    """A one-voxel layer of opacity 0.5 along y filling only the level-1 texel column around a cone's axis
+    (2 x 2 voxels, a quarter of the level-2 texel's columns), crossed along y by a thin cone reading level 2
+    (lod_min 2): the axis crosses the layer once, so T = 0.5 (the finer read, at level 1, sees the column
+    covered; its opacity counts over the step's ds / its own texel length, 1 / 4 per step of half a voxel);
+    the level-2 texel (a quarter of its columns at 0.5: opacity 1 - 0.75 - 0.25 x 0.5 = 0.125) counts where it
+    lets less through, over at most the half of it the finer texel leaves: T in [0.5 x 0.875^(1/2), 0.5].
+    Control: the finer read counted per the coarse level's texel length (ds / 4 h0 per step) gives
+    0.5^(1/2) = 0.71 (times at most 0.875^(1/2)), outside that interval."""
+    res = 32
+    vs = blank_voxels(ctx, res)
+    h0 = vs.grid.voxel_size
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    faces[2:4, 0, 16:18, 13, 16:18, 3] = 0.5  # the level-1 texel (8, 6, 8)'s columns, in the level-2 texel (4, 3, 4)
+    vs.write_level0(faces)
+    vs.build_mips()
+    n = np.array([0.0, 1.0, 0.0])
+    origin = np.array([0.5 * h0, (8 - 16 + 0.3) * h0, 0.5 * h0])
+    r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
+                      n[None], lod_min=2.0)[0]
+    vs.release()
+    lo, hi = 0.5 * math.sqrt(0.875) - 0.005, 0.5 + 0.005
+    assert lo <= 1.0 - r[3] <= hi, r
+    assert math.sqrt(0.5) * math.sqrt(0.875) > hi

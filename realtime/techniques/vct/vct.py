@@ -31,23 +31,23 @@ Every frame (timed `voxelize`, its mips as `mip`):
    its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
-Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
-diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
-from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
-through the paper's reflectance. Cones read texels nearest (mip-linear), combine the axes' optical
-depths weighted by |d_a| (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not
-change a medium's transmittance, and a layer crossed at any angle keeps its optical depth) and keep the
-smaller transmittance of that and the finer level's whose texel is the step, read from the column texture
-(the texel's most covered column: vct_trace.glsl derives both; no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
-START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
-self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
-the level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it
-leaves (derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the
-nearest lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every
-diffuse cone of 4, 6 or 9, so `diffuse_cones` sets their directions and weights, not their levels;
-narrower cones (the glossy one) keep their own width. An occluder on a capped cone's axis reads as filling
-the whole cone (tests/realtime/test_vct_gpu.py measures the over-occlusion under a sphere). A wall parallel
-to a cone does not block it (its coverage along its own plane is 0). The cones' cost is inside `draw`; E10 reports `trace` as
+Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
+cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
+exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather, through the paper's
+reflectance. Cones read texels nearest (mip-linear), combine the axes' optical depths weighted by |d_a|
+(vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a medium's
+transmittance, and a layer crossed at any angle keeps its optical depth) and keep the smaller transmittance of
+that and the finer level's whose texel is the step, read from the column texture (the texel's most covered
+column: vct_trace.glsl derives both; no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS
+along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
+the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
+level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it leaves
+(derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the nearest
+lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every diffuse cone of 4,
+6 or 9, so `diffuse_cones` sets their directions and weights, not their levels; narrower cones (the glossy
+one) keep their own width. An occluder on a capped cone's axis reads as filling the whole cone
+(tests/realtime/test_vct_gpu.py measures the over-occlusion under a sphere). A wall parallel to a cone does
+not block it (its coverage along its own plane is 0). The cones' cost is inside `draw`; E10 reports `trace` as
 draw minus the same scene's direct-only draw.
 """
 
