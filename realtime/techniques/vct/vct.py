@@ -8,9 +8,11 @@ finest grid goes where the geometry is; realtime/techniques/vct/vct_math.py: `Ca
 box with a 10% margin). `cascades = 1` is a plain 3D texture over the same extent.
 
 Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel
-toward it; rgb radiance premultiplied by alpha, a the opacity), the cascades stacked along z, each face
-with its anisotropic mip chain: 6 x 8 = 48 bytes per voxel at every level (the seed stores the finest
-level isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
+toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' coverage along the face's
+axis), the cascades stacked along z, each face with its anisotropic mip chain, and one RGBA16F column
+texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read: 7 x 8 = 56 bytes per
+voxel at every level (the seed stores the finest level isotropically; here it is six-face too, so that a
+thin wall's two sides stay apart).
 
 Every frame (timed `voxelize`, its mips as `mip`):
 1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
