@@ -704,9 +704,9 @@ def test_finer_read_counts_its_texel_once_per_crossing(ctx):
     (lod_min 2): the axis crosses the layer once, so T = 0.5 (the finer read, at level 1, sees the column
     covered; its opacity counts over the step's ds / its own texel length, 1 / 4 per step of half a voxel);
     the level-2 texel (a quarter of its columns at 0.5: opacity 1 - 0.75 - 0.25 x 0.5 = 0.125) counts where it
-    lets less through, over at most the half of it the finer texel leaves: T in [0.5 x 0.875^(1/2), 0.5].
-    Control: the finer read counted per the coarse level's texel length (ds / 4 h0 per step) gives
-    0.5^(1/2) = 0.71 (times at most 0.875^(1/2)), outside that interval."""
+    lets less through, over at most the 3/4 of it the finer reads leave (they hold at least the layer's
+    voxel): T in [0.5 x 0.875^(3/4), 0.5]. Control: the finer read counted per the coarse level's texel
+    length (ds / 4 h0 per step) gives 0.5^(1/2) = 0.71 (times at least 0.875^(3/4)), outside that interval."""
     res = 32
     vs = blank_voxels(ctx, res)
     h0 = vs.grid.voxel_size
@@ -719,6 +719,28 @@ def test_finer_read_counts_its_texel_once_per_crossing(ctx):
     r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
                       n[None], lod_min=2.0)[0]
     vs.release()
-    lo, hi = 0.5 * math.sqrt(0.875) - 0.005, 0.5 + 0.005
+    lo, hi = 0.5 * 0.875 ** 0.75 - 0.005, 0.5 + 0.005
     assert lo <= 1.0 - r[3] <= hi, r
-    assert math.sqrt(0.5) * math.sqrt(0.875) > hi
+    assert math.sqrt(0.5) * 0.875 ** 0.75 > hi
+
+
+def test_finer_read_sees_the_axis_column_not_its_neighbour(ctx):
+    """As above, but the layer (opacity 0.5 along y) covers only the two columns next to the axis's own inside
+    the level-1 texel (x voxel 17 where the axis runs through 16): the axis meets nothing, so the finer read
+    (split into level-0 reads, as long as its half of the step each) passes it, and only the level-2 texel,
+    2 of its 16 columns at 0.5 (opacity 0.0625), counts: T in [0.9375 - 0.01, 1]. Control: one read of the
+    level-1 texel's most covered column gives 0.5, outside that interval."""
+    res = 32
+    vs = blank_voxels(ctx, res)
+    h0 = vs.grid.voxel_size
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    faces[2:4, 0, 17, 13, 16:18, 3] = 0.5
+    vs.write_level0(faces)
+    vs.build_mips()
+    n = np.array([0.0, 1.0, 0.0])
+    origin = np.array([0.5 * h0, (8 - 16 + 0.3) * h0, 0.5 * h0])
+    r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
+                      n[None], lod_min=2.0)[0]
+    vs.release()
+    assert 0.9375 - 0.01 <= 1.0 - r[3] <= 1.0, r
+    assert 0.5 < 0.9375 - 0.01

@@ -40,7 +40,8 @@ reflectance. Cones read texels nearest (mip-linear), combine the axes' optical d
 (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a medium's
 transmittance, and a layer crossed at any angle keeps its optical depth) and keep the smaller transmittance of
 that and the finer level's whose texel is the step, read from the column texture (the texel's most covered
-column: vct_trace.glsl derives both; no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS
+column, split into up to four reads two levels finer: vct_trace.glsl derives both; no leak through a one-voxel
+wall). The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
 the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
 level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it leaves

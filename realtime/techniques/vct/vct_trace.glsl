@@ -21,6 +21,8 @@ uniform float vct_start_voxels;  // first sample's distance from the (offset) or
 uniform float vct_normal_voxels; // the origin's offset along the normal, in the same voxels
 // the opacity read is clamped below 1 so that its optical depth -ln(1 - alpha) stays finite (13.8: opaque)
 #define VCT_MAX_ALPHA 0.999999
+// the cones' finer read is split into up to 2^VCT_FINE_SPLIT reads, VCT_FINE_SPLIT levels finer (vct_cone)
+#define VCT_FINE_SPLIT 2
 
 // the finest cascade holding p, half a voxel inside its box (-1: outside every cascade)
 int vct_cascade_of(vec3 p) {
@@ -147,7 +149,22 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         float vs = vct_voxel * exp2(float(c) + mip);
         float vs_fine = vct_voxel * exp2(float(c) + fine_level);
         float a0 = clamp(s.a, 0.0, 1.0);
-        float a = 1.0 - min(vct_step_transmittance(alphas, d, ds, vs), vct_step_transmittance(fine, d, ds, vs_fine));
+        // The finer read's texel is the step, so it holds columns beside the axis as well as the axis's own:
+        // an occluder beside the axis within it counts as on it (cornell-open's indirect energy at 64^3:
+        // 0.82 of the path tracer's). Split into 2^m reads m levels finer, 1 / 2^m of the step apart (each
+        // texel as long as its share of the step, so none can be stepped over), the axis's column is known
+        // to 2^-m of that width: 0.85 with m = 1, 0.86 with m = 2 and m = 4 (converged: m <= 2 kept).
+        int m = int(min(floor(fine_level), float(VCT_FINE_SPLIT)));
+        float fl = fine_level - float(m);
+        float vf = vct_voxel * exp2(float(c) + fl);
+        int parts = 1 << m;
+        float T_fine = 1.0;
+        for (int k = 0; k < parts; ++k) {
+            vec3 q = p - (float(k) / float(parts)) * ds * d;
+            vec3 f = clamp(vct_fetch(vct_columns, (q - vct_centre) / (2.0 * he_c) + 0.5, c, fl).xyz, 0.0, 1.0);
+            T_fine *= vct_step_transmittance(f, d, ds / float(parts), vf);
+        }
+        float a = 1.0 - min(vct_step_transmittance(alphas, d, ds, vs), T_fine);
         vec3 rgb = a0 > 1e-6 ? s.rgb * (a / a0) : vec3(0.0);
         acc.rgb += (1.0 - acc.a) * rgb;
         acc.a += (1.0 - acc.a) * a;
