@@ -125,29 +125,27 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         float lod = max(min(lod_cone, lod_cap), lod_min);
         int c = clamp(int(floor(lod)), inside, vct_cascades - 1);
         float mip = clamp(lod - float(c), 0.0, max_mip);
-        vec3 alphas, fine;
+        vec3 alphas;
         vec4 s = vct_read(p, d, c, mip, alphas);
         // Opacity also from the finer level whose texel is the step (ds = vct_step * diam: log2(vct_step)
         // levels below; the cascade's own level 0 at the finest): a coarse texel at a surface's edge averages
         // the surface with the open space beyond it, which a cone inside the surface's bounds cannot reach
         // without crossing it (a closed box's corner texels read 1 - 2/16 transparent at 16 voxels a texel);
         // the finer texel holding the axis is the one the cone's centre crosses, and texels as long as the
-        // step cannot be stepped over. The larger opacity of the two is kept (a small occluder off the axis
-        // still counts through the coarse texel). The finer read takes the texel's most covered column
+        // step cannot be stepped over. The smaller transmittance of the two is kept (a small occluder off the
+        // axis still counts through the coarse texel). The finer read takes the texel's most covered column
         // (the column texture, max-mipped), not its mean coverage: the axis crosses one column, and where
         // a texel of a box's roof reaches past the wall beside it, the open columns beyond the wall are
         // what the cone only reaches through the wall, which coverage counts as transparent along the
         // wall's own plane (a mean would let 1 - 0.82 of the light through a 128^3 box's roof corner).
         float fine_level = max(mip + log2(vct_step), 0.0);
         float he_c = vct_half_extent * exp2(float(c));
-        fine = clamp(vct_fetch(vct_columns, (p - vct_centre) / (2.0 * he_c) + 0.5, c, fine_level).xyz, 0.0, 1.0);
         float ds = vct_step * diam;
         // opacity of a step ds through a texel of edge vs at this level (Beer-Lambert, vct_step_transmittance);
         // the radiance it adds is the texel's (rgb / alpha, premultiplied) times that opacity. Each read's
-        // opacities are per its own texel's length: the finer read's texel is vs_fine (the step, or level 0),
-        // so the step crosses ds / vs_fine of it; the step keeps the smaller of the two transmittances.
+        // opacities are per its own texel's length: a finer read's texel is vf (its share of the step, or
+        // level 0's), so its share of the step crosses (ds / parts) / vf of it.
         float vs = vct_voxel * exp2(float(c) + mip);
-        float vs_fine = vct_voxel * exp2(float(c) + fine_level);
         float a0 = clamp(s.a, 0.0, 1.0);
         // The finer read's texel is the step, so it holds columns beside the axis as well as the axis's own:
         // an occluder beside the axis within it counts as on it (cornell-open's indirect energy at 64^3:
