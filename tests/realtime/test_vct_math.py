@@ -73,21 +73,32 @@ def old_rule(alphas, d, ds, voxel) -> float:
     return 1.0 - float((np.asarray(d) ** 2) @ np.asarray(alphas))
 
 
+def squared_cosine_rule(alphas, d, ds, voxel) -> float:
+    """The rule before: optical depths weighted by d's squared cosines (a medium alike along every axis)."""
+    tau = -np.log(1.0 - np.minimum(np.asarray(alphas, dtype=np.float64), vct_math.MAX_ALPHA))
+    return math.exp(-float((np.asarray(d) ** 2) @ tau) * ds / voxel)
+
+
 @pytest.mark.parametrize("alpha", [0.05, 0.3, 0.8])
-@pytest.mark.parametrize("cos_n", [1.0, 0.6])
-def test_uniform_slab_transmittance_follows_the_exponential_law_at_any_step(alpha, cos_n):
-    """A uniform medium of per-voxel opacity alpha (every face alike) over a slab 6 voxels thick, crossed at
-    cos_n to its normal: Beer-Lambert gives T = (1 - alpha)^(path / voxel), path = 6 voxels / cos_n, whatever
-    the step (0.5, 0.25, 0.125 voxel: halving it must not change T). Control: the old rule (a sample adds
-    alpha whole) depends on the step and misses the law by far more than the tolerance."""
+@pytest.mark.parametrize("cos_n", [1.0, 0.6, 0.3])
+def test_stacked_layers_pass_their_product_at_any_angle_and_step(alpha, cos_n):
+    """Six layers of normal y, one a voxel, each covering alpha of a voxel's cross-section along y and
+    nothing along x or z (a surface's coverage is transparent along its own plane): a ray crossing them at
+    cos_n to their normal crosses each layer once, so T = (1 - alpha)^6 whatever the angle and the step
+    (0.5, 0.25, 0.125 voxel). Controls: the squared-cosine rule gives (1 - alpha)^(6 cos_n) (a grazing ray
+    slips through), and a sample adding its alpha whole depends on the step."""
     h = 0.1
     d = np.array([math.sqrt(1.0 - cos_n ** 2), cos_n, 0.0])
     path = 6 * h / cos_n
-    want = (1.0 - alpha) ** (path / h)
+    want = (1.0 - alpha) ** 6
+    layers = lambda t: np.array([0.0, alpha, 0.0])  # noqa: E731
     for step in (0.5, 0.25, 0.125):
-        got = march(lambda t: np.full(3, alpha), d, path, h, step, vct_math.step_transmittance)
+        got = march(layers, d, path, h, step, vct_math.step_transmittance)
         assert got == pytest.approx(want, rel=1e-9), (step, got, want)
-    old = [march(lambda t: np.full(3, alpha), d, path, h, step, old_rule) for step in (0.5, 0.25)]
+    if cos_n < 1.0:
+        wrong = march(layers, d, path, h, 0.25, squared_cosine_rule)
+        assert abs(math.log(wrong / want)) > 0.05 * abs(math.log(want)) + 0.01
+    old = [march(layers, d, path, h, step, old_rule) for step in (0.5, 0.25)]
     assert abs(math.log(old[0] / old[1])) > 0.05 and abs(math.log(old[0] / want)) > 0.05
 
 

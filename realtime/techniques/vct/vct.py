@@ -8,9 +8,11 @@ finest grid goes where the geometry is; realtime/techniques/vct/vct_math.py: `Ca
 box with a 10% margin). `cascades = 1` is a plain 3D texture over the same extent.
 
 Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel
-toward it; rgb radiance premultiplied by alpha, a the opacity), the cascades stacked along z, each face
-with its anisotropic mip chain: 6 x 8 = 48 bytes per voxel at every level (the seed stores the finest
-level isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
+toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' coverage along the face's
+axis), the cascades stacked along z, each face with its anisotropic mip chain, and one RGBA16F column
+texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read: 7 x 8 = 56 bytes per
+voxel at every level (the seed stores the finest level isotropically; here it is six-face too, so that a
+thin wall's two sides stay apart).
 
 Every frame (timed `voxelize`, its mips as `mip`):
 1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
@@ -18,32 +20,37 @@ Every frame (timed `voxelize`, its mips as `mip`):
    (kd, ks, exponent, f0, Schlick flag: `reflectance_of`) and per face direction a_f the weight
    max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
    would face nowhere);
-2. occupancy (vct_inject.comp, inject = 0): alpha = 1 where a triangle touched, then its mips;
+2. coverage (vct_inject.comp, inject = 0): each face's alpha = the surface's coverage of the voxel's
+   cross-section along the face's axis (|n_a| / |n|_inf: a plane is transparent along itself), then its
+   mips; the same coverages into the column texture (one channel per axis), max-mipped
+   (vct_column_mip.comp): the most covered column of a texel, the cones' finer read;
 3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
    (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
    `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
    the SH9 radiance convolved with the Phong lobe about the mirror direction r; V the diffuse cones'
-   visibility through the voxels themselves, mips >= 1: level 0 is being written). Faced faces carry the
-   full radiance, faces in the surface's plane the faced faces' mean (a thin two-sided wall's: the darker
-   side's), faces behind it none (vct_inject.comp derives each). Then the radiance mips. `bounces` = k
+   visibility through the voxels themselves: the direct pass reads every level, the bounce passes mips >= 1, as
+   level 0's radiance is being written). Faced faces carry the full radiance, the others none, each times
+   its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
-Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the
-diffuse cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle
-from the Phong exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather,
-through the paper's reflectance. Cones read texels nearest (mip-linear), combine the axes' optical
-depths (vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a
-medium's transmittance) and keep the opacity of the finer level whose texel is the step (vct_trace.glsl
-derives both: no leak through a one-voxel wall). The cones start NORMAL_OFFSET_VOXELS along the normal and
-START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point): the
-self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads
-the level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it
-leaves (derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the
-nearest lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every
-diffuse cone of 4, 6 or 9, so `diffuse_cones` sets their directions and weights, not their levels;
-narrower cones (the glossy one) keep their own width. An occluder on a capped cone's axis reads as filling
-the whole cone, and a wall parallel to a cone blocks it once per texel (tests/realtime/test_vct_gpu.py
-measures the over-occlusion under a sphere). The cones' cost is inside `draw`; E10 reports `trace` as
+Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
+cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
+exponent, vct_math.glossy_half_angle); interreflection adds what the same cones gather, through the paper's
+reflectance. Cones read texels nearest (mip-linear), combine the axes' optical depths weighted by |d_a|
+(vct_math.step_transmittance: Beer-Lambert per step, so the step length does not change a medium's
+transmittance, and a layer crossed at any angle keeps its optical depth) and keep the smaller transmittance of
+that and the finer level's whose texel is the step, read from the column texture (the texel's most covered
+column, split into up to four reads two levels finer: vct_trace.glsl derives both; no leak through a one-voxel
+wall). The cones start NORMAL_OFFSET_VOXELS
+along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
+the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
+level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it leaves
+(derived for a trilinear lookup: the coarser level's texel at most (height / |n|_1 - h0) / 1.5; the nearest
+lookup reaches less far). The cap keeps a plane from reading itself, but it binds for every diffuse cone of 4,
+6 or 9, so `diffuse_cones` sets their directions and weights, not their levels; narrower cones (the glossy
+one) keep their own width. An occluder on a capped cone's axis reads as filling the whole cone
+(tests/realtime/test_vct_gpu.py measures the over-occlusion under a sphere). A wall parallel to a cone does
+not block it (its coverage along its own plane is 0). The cones' cost is inside `draw`; E10 reports `trace` as
 draw minus the same scene's direct-only draw.
 """
 
@@ -67,15 +74,23 @@ NORMAL_OFFSET_VOXELS = 1.5
 START_OFFSET_VOXELS = 1.0
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
-#: injection's visibility cones read mips >= this (level 0 is being written in the same pass)
+#: the bounce passes' cones read mips >= this: they gather the previous bounce's radiance from level 0's rgb,
+#: which the same pass overwrites. The direct pass reads level 0 too: its cones use only the opacities, which
+#: the coverage pass wrote and it rewrites unchanged (a level-1 texel near the surface holds the surface's
+#: own layer, which then occludes its own cones: cornell-open's indirect energy at 32^3 goes from 0.81 to 0.86 of
+#: the path tracer's one bounce with level 0 read)
 INJECT_LOD_MIN = 1.0
 #: injection's cones step this many times the shading's (`step`); 2 halves the injection's time on cornell-open but
 #: darkens the injected light by a fifth (Beer-Lambert over fewer samples), so it stays 1
 INJECT_STEP_FACTOR = 1.0
 #: texture units of the six face textures (1, 2, 5 are the environment's, the prefiltered chain's, shadows')
 FACE_UNIT0 = 8
+#: texture unit of the column texture (after the six faces)
+COLUMN_UNIT = FACE_UNIT0 + 6
+#: image unit the coverage pass writes the column texture through (0..5: the faces)
+COLUMN_IMAGE = 6
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
-BYTES_PER_VOXEL = 6 * 8  # six RGBA16F faces
+BYTES_PER_VOXEL = 7 * 8  # six RGBA16F faces and the RGBA16F column texture
 #: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
 VOXEL_INTS = 34
 FACE_INTS0 = 10
@@ -175,11 +190,15 @@ class VoxelScene:
             tex.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
             self.faces.append(tex)
+        self.columns = ctx.texture3d(size, 4, dtype="f2")
+        self.columns.build_mipmaps()
+        self.columns.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         self.mip_levels = self.grid.levels
         here = __package__
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
         self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
+        self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         self.probe_prog = None
         self.cone_prog = None
         self.updated_frame: int | None = None
@@ -235,15 +254,19 @@ class VoxelScene:
         sh_buffer.bind_to_storage_buffer(2)
         for f, tex in enumerate(self.faces):
             tex.bind_to_image(f, read=False, write=True, level=0)
+        if mode == 0:
+            self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
-        set_uniform(p, "lod_min", INJECT_LOD_MIN)
+        set_uniform(p, "lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
         set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
         g = groups(self.resolution, 4)
         p.run(g, g, g)
         self.ctx.memory_barrier()
 
     def build_mips(self) -> None:
+        """The six faces' anisotropic mips and the column texture's."""
+        self.build_column_mips()
         p = self.mip_prog
         R = self.resolution
         for level in range(1, self.mip_levels):
@@ -257,11 +280,23 @@ class VoxelScene:
                 p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
             self.ctx.memory_barrier()
 
+    def build_column_mips(self) -> None:
+        p = self.column_mip_prog
+        for level in range(1, self.mip_levels):
+            r = self.resolution >> level
+            p["dst_size"] = (r, r, r * self.count)
+            self.columns.bind_to_image(0, read=True, write=False, level=level - 1)
+            self.columns.bind_to_image(1, read=False, write=True, level=level)
+            p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+
     # -- tracing uniforms -----------------------------------------------------------------------
     def bind_trace(self, prog: moderngl.Program) -> None:
         for f, tex in enumerate(self.faces):
             tex.use(FACE_UNIT0 + f)
             set_uniform(prog, f"vct_face_{FACE_NAMES[f]}", FACE_UNIT0 + f)
+        self.columns.use(COLUMN_UNIT)
+        set_uniform(prog, "vct_columns", COLUMN_UNIT)
         g = self.grid
         set_uniform(prog, "vct_centre", g.centre)
         set_uniform(prog, "vct_half_extent", g.half_extent)
@@ -292,11 +327,18 @@ class VoxelScene:
 
     def read_faces(self, level: int = 0) -> np.ndarray:
         """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
+        return self._read_textures(self.faces, level)
+
+    def read_columns(self, level: int = 0) -> np.ndarray:
+        """(C, R_L, R_L, R_L, 3) float32 indexed [cascade, x, y, z, axis]: the column texture at one mip level."""
+        return self._read_textures([self.columns], level)[0, ..., :3]
+
+    def _read_textures(self, textures, level: int) -> np.ndarray:
         r = self.resolution >> level
         prog = self.ctx.compute_shader(shader_source("vct_dump.comp", package=__package__))
         buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
         out = []
-        for tex in self.faces:
+        for tex in textures:
             tex.bind_to_image(0, read=True, write=False, level=level)
             buf.bind_to_storage_buffer(1)
             prog["size"] = (r, r, r * self.count)
@@ -313,6 +355,10 @@ class VoxelScene:
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
             tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
+        # the column texture along each axis: the larger opacity of its two faces
+        occ = np.zeros(faces.shape[1:], "f4")
+        occ[..., :3] = np.maximum(faces[0::2, ..., 3], faces[1::2, ..., 3]).transpose(1, 2, 3, 4, 0)
+        self.columns.write(np.ascontiguousarray(occ.transpose(0, 3, 2, 1, 4).reshape(-1), dtype="f2").tobytes())
 
     def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
         """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""
@@ -375,8 +421,8 @@ class VoxelScene:
                         "bounces": self.bounces}}
 
     def release(self) -> None:
-        for r in [self.triangles, *self.scratch, *self.faces, self.voxelize_prog, self.inject_prog,
-                  self.mip_prog, self.probe_prog, self.cone_prog]:
+        for r in [self.triangles, *self.scratch, *self.faces, self.columns, self.voxelize_prog, self.inject_prog,
+                  self.mip_prog, self.column_mip_prog, self.probe_prog, self.cone_prog]:
             if r is not None:
                 r.release()
 

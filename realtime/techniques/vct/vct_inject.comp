@@ -1,28 +1,27 @@
 #version 430
 // Per voxel of one cascade (realtime/techniques/vct/vct.py), level 0 of the six face textures.
-// OCCUPANCY pass: alpha = 1 where a triangle touched the voxel, rgb = 0 (the opacity the visibility
-// cones of the INJECT pass trace through, after its mips are built).
+// OCCUPANCY pass: alpha = the surface's coverage along the face's axis (coverage below), rgb = 0 (the
+// opacity the visibility cones of the INJECT pass trace through, after its mips are built); and the
+// column texture: the same coverage per axis in its rgb (the cones' finer read, max-mipped).
 // INJECT pass: face f holds the radiance that leaves the voxel toward a_f, i.e. what a viewer looking
-// along -a_f sees of the surface inside it (opaque: alpha = 1):
+// along -a_f sees of the surface inside it, premultiplied by the coverage along its axis (its alpha):
 // - a face some triangle faces (W_f = sum max(0, n . a_f) > 0): the surface's radiance toward v = a_f,
 //   n_f its weighted mean normal, the paper's reflectance L = (1 - F) kd / pi (E V + E_b)
 //   + F ks (L_g(r) V + E_b / pi), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f). E is the
 //   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the SH9 radiance
 //   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N, whose band factors are
 //   Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3); V the diffuse cones'
-//   visibility through the voxels themselves (mips >= 1 only: level 0 is being written; the glossy lobe
+//   visibility through the voxels themselves (the bounce passes: mips >= 1 only, level 0's radiance is being written; the glossy lobe
 //   shares it), E_b what the same cones gather from the previous bounce (inject = 2; under the glossy
 //   lobe taken as uniform: a lobe of albedo ks under radiance E_b / pi reflects ks E_b / pi). A viewer
 //   along -a_f looking at a plane crossing the voxel hits its front whenever a_f . n > 0, so the face
 //   carries the full radiance (not a fraction n . a_f);
-// - a face no triangle faces whose opposite face none faces either (a_f lies in the surfaces' plane: the
-//   side faces of an axis-aligned plane): the mean of the faced faces' radiance. A cone reads a voxel's
-//   faces with weights d_a^2, so a plane of radiance L with normal +y read from d sends
-//   int (d_y^2 L + (1 - d_y^2) L_side) cos dw = pi/2 (L + L_side) into its front hemisphere: L_side = L
-//   gives its whole exitance pi L (L_side = 0 loses half of it). Where the voxel holds both sides of a thin
-//   surface (two opposite faces faced: a two-sided wall), a side face cannot tell which side its viewer is
-//   on; it takes the darker side's radiance (componentwise minimum), so that no light crosses the wall;
-// - a face looking at a surface's back (the opposite face is faced): black.
+// - any other face: black. A face no triangle faces whose opposite face none faces either has a_f in
+//   the surfaces' plane (n_a = 0 for all of them), so its coverage is 0 and it holds nothing: a cone
+//   reads rgb / alpha over the faces weighted by d_a^2, so a plane of radiance L with normal +y reads L
+//   from every direction with d_y != 0 (its whole exitance pi L over its front hemisphere), and no side
+//   face carries one side of a thin wall's light to the other;
+// - a face looking at a surface's back (the opposite face is faced): black, opaque by its coverage.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 1) readonly buffer Voxels { int acc[]; };
 layout(std430, binding = 2) readonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
@@ -32,8 +31,9 @@ layout(rgba16f, binding = 2) uniform writeonly image3D out_py;
 layout(rgba16f, binding = 3) uniform writeonly image3D out_ny;
 layout(rgba16f, binding = 4) uniform writeonly image3D out_pz;
 layout(rgba16f, binding = 5) uniform writeonly image3D out_nz;
+layout(rgba16f, binding = 6) uniform writeonly image3D out_columns;  // written by the OCCUPANCY pass only
 uniform int cascade;
-uniform int inject;     // 0: occupancy only; 1: direct radiance; 2: direct + gathered bounce
+uniform int inject;     // 0: coverage only; 1: direct radiance; 2: direct + gathered bounce
 uniform float lod_min;  // the visibility cones' finest mip
 #include "vct_trace.glsl"
 
@@ -66,6 +66,25 @@ vec3 glossy_sh(vec3 r, float N) {
     return max(L, vec3(0.0));
 }
 
+// The voxel's opacity along each axis: the fraction of the voxel's cross-section its surface covers seen
+// along that axis. A plane of unit normal n crossing a voxel of edge h is a graph over the faces of its
+// dominant axis m (|n_m| = |n|_inf): its piece inside the voxel has area about h^2 / |n_m| and projects
+// along axis a onto h^2 |n_a| / |n_m| of the voxel's face, so alpha_a = |n_a| / |n|_inf: 1 along the
+// normal, 0 along a plane's own directions (a wall running alongside a cone does not block it, where a
+// voxel opaque along every axis blocks the cone once per texel it passes). Several surfaces in a voxel
+// (a corner, a thin wall's two sides): each axis keeps the largest of their coverages.
+vec3 coverage(int base) {
+    vec3 cover = vec3(0.0);
+    for (int f = 0; f < 6; ++f) {
+        int o = base + FACE_INTS0 + 4 * f;
+        vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
+        vec3 m = abs(ns);
+        float top = max(m.x, max(m.y, m.z));
+        if (acc[o] > 0 && top > 0.0) cover = max(cover, m / top);
+    }
+    return cover;
+}
+
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
     int R = vct_resolution;
@@ -73,9 +92,10 @@ void main() {
     int base = ((g.z * R + g.y) * R + g.x) * VOXEL_INTS;
     int count = acc[base];
     ivec3 q = ivec3(g.xy, g.z + cascade * R);
+    vec3 cover = coverage(base);
     if (count == 0 || inject == 0) {
-        vec4 v = vec4(0.0, 0.0, 0.0, count > 0 ? 1.0 : 0.0);
-        for (int f = 0; f < 6; ++f) put(f, q, v);
+        for (int f = 0; f < 6; ++f) put(f, q, vec4(0.0, 0.0, 0.0, count > 0 ? cover[f / 2] : 0.0));
+        if (inject == 0) imageStore(out_columns, q, vec4(count > 0 ? cover : vec3(0.0), 0.0));
         return;
     }
     float cnt = float(count);
@@ -94,8 +114,6 @@ void main() {
     int done = 0;
     vec3 L[6];
     bool faced[6];
-    vec3 faced_sum = vec3(0.0), faced_min = vec3(1e30);
-    int faced_count = 0;
     for (int f = 0; f < 6; ++f) {
         int o = base + FACE_INTS0 + 4 * f;
         vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
@@ -122,14 +140,9 @@ void main() {
         float F = f0 + schlick * (1.0 - f0) * pow(1.0 - c, 5.0);
         vec3 r = reflect(-a, n);
         L[f] = (1.0 - F) * kd / PI * (irradiance(n) * V + Eb) + F * ks * (glossy_sh(r, N) * V + Eb / PI);
-        faced_sum += L[f];
-        faced_min = min(faced_min, L[f]);
-        ++faced_count;
     }
-    bool thin = (faced[0] && faced[1]) || (faced[2] && faced[3]) || (faced[4] && faced[5]);
-    vec3 side = faced_count == 0 ? vec3(0.0) : (thin ? faced_min : faced_sum / float(faced_count));
     for (int f = 0; f < 6; ++f) {
-        bool grazing = !faced[f] && !faced[f ^ 1];
-        put(f, q, vec4(faced[f] ? L[f] : (grazing ? side : vec3(0.0)), 1.0));
+        // premultiplied: the radiance of what covers the face's axis, times that coverage
+        put(f, q, cover[f / 2] * vec4(L[f], 1.0));
     }
 }

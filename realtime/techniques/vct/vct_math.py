@@ -4,7 +4,7 @@ or the GPU side needs without GL.
 - `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles whose solid angles sum
   to the hemisphere's 2 pi, cosine weights that sum to pi) for 4, 6 or 9 cones.
 - `step_transmittance`: what one step of a cone lets through a texel (Beer-Lambert per axis, the optical
-  depths weighted by the direction's squared cosines; vct_trace.glsl's `vct_step_transmittance`).
+  depths weighted by the direction's absolute cosines; vct_trace.glsl's `vct_step_transmittance`).
 - `glossy_half_angle(exponent)`: the glossy cone follows the Phong exponent: its solid angle
   2 pi (1 - cos a) is the lobe's 2 pi / (N + 1) (McGuire et al. 2013), clamped to [1, 30] degrees.
 - `Cascades`: nested cubic grids, each twice the extent of the one inside it, centred on the objects;
@@ -83,13 +83,13 @@ MAX_ALPHA = 1.0 - 1e-6
 def step_transmittance(alphas: np.ndarray, d: np.ndarray, ds: float, voxel: float) -> float:
     """Transmittance of a step ds along unit d through a texel of edge `voxel` whose faces (the ones a cone
     along d reads, one per axis) have opacities `alphas` (3,). A face's alpha is the opacity of one texel's
-    length along its axis, so Beer-Lambert gives tau_a = -ln(1 - alpha_a) / voxel per length; along d the
-    extinction is the axes' interpolated by d's squared cosines (summing to 1):
-    T = prod_a (1 - alpha_a)^(d_a^2 ds / voxel). Half a texel counts half its optical depth, and an opaque
-    layer stays opaque to every ray crossing it (d_a != 0)."""
+    length along its axis (its surfaces' coverage), so Beer-Lambert gives tau_a = -ln(1 - alpha_a) / voxel per
+    length; along d a surface of normal e_a shows |d_a| of its area, so T = prod_a (1 - alpha_a)^(|d_a| ds / voxel):
+    a layer of normal e_a crossed at any angle (over vs / |d_a|) keeps its optical depth -ln(1 - alpha_a). Half
+    a texel counts half its optical depth."""
     d = np.asarray(d, dtype=np.float64)
     tau = -np.log(1.0 - np.minimum(np.asarray(alphas, dtype=np.float64), MAX_ALPHA))
-    return float(math.exp(-float((d * d) @ tau) * ds / voxel))
+    return float(math.exp(-float(np.abs(d) @ tau) * ds / voxel))
 
 
 def tangent_frame(n: np.ndarray) -> np.ndarray:

@@ -62,8 +62,11 @@ void main() {
     float schlick = nn.w > 1.5 ? 1.0 : 0.0;
     vec3 lo = (min(a, min(b, d)) - grid_min) / voxel;
     vec3 hi = (max(a, max(b, d)) - grid_min) / voxel;
-    ivec3 i0 = max(ivec3(floor(lo)), ivec3(0));
-    ivec3 i1 = min(ivec3(floor(hi)), ivec3(resolution - 1));
+    // the bounding box's voxels, widened by a thousandth of a voxel: a triangle lying on a voxel boundary
+    // (lo = hi = an integer, up to rounding) touches the voxels on both sides, and rounding may put the
+    // floor in the one below while the separating-axis test rejects it (the plane a hair outside its box)
+    ivec3 i0 = max(ivec3(floor(lo - 1e-3)), ivec3(0));
+    ivec3 i1 = min(ivec3(floor(hi + 1e-3)), ivec3(resolution - 1));
     if (any(lessThan(i1, i0))) return;
     vec3 hs = vec3(0.5 * voxel);
     for (int z = i0.z; z <= i1.z; ++z)
