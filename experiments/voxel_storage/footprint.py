@@ -2,9 +2,9 @@
 
 The payload of a voxel is iblcheck's VCT texel (realtime/techniques/vct/vct.py): six faces (+X, -X, +Y,
 -Y, +Z, -Z), each RGBA16F, 6 x 4 x 2 = 48 bytes (iblcheck's VCT also keeps a column texture of 8 more bytes a
-voxel for its opacity reads; the seed's structures store the radiance faces alone, so it is left out). No structure here counts mip levels (a dense grid's mip
-chain would add 1/7, a sparse octree's inner nodes would need their own filtered payload): every
-structure stores the finest level only, so they compare alike.
+voxel for its opacity reads; the seed's structures store the radiance faces alone, so it is left out). No
+structure here counts mip levels (a dense grid's mip chain would add 1/7, a sparse octree's inner nodes would
+need their own filtered payload): every structure stores the finest level only, so they compare alike.
 """
 
 from __future__ import annotations

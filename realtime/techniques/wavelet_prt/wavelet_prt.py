@@ -9,8 +9,8 @@ V(x, w_t) max(0, n . w_t) dOmega_t (plus bounces), Haar-transformed per face and
 Every frame (timed as `filter`, like PRT's SH projection; wavelet_gpu.py): the environment cube's box level of face
 cube_size is Haar-transformed, its `terms` (K) coefficients of largest area-weighted magnitude are kept (haar.py:
 the key, the rule for ties), and per vertex E = sum over the K kept of l_j w_v[j] (wavelet_dot.comp: per vertex
-the cheaper of K binary searches in its sorted entries and a scan of its entries). The shading pass interpolates E across the triangle
-(wavelet_vertex.glsl) and multiplies by kd / pi (irradiance transfer, as PRT's).
+the cheaper of K binary searches in its sorted entries and a scan of its entries). The shading pass interpolates
+E across the triangle (wavelet_vertex.glsl) and multiplies by kd / pi (irradiance transfer, as PRT's).
 
 With K = 6 cube_size^2 and threshold 0 it is the texel sum of the transfer times the radiance (orthonormal Haar:
 nothing is lost). The transfer is the front side's (two-sided materials are refused, as PRT's); only the diffuse
