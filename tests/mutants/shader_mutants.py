@@ -231,6 +231,8 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "VCT: radiance composited without the transmittance"),
     ("realtime/techniques/vct/vct_trace.glsl", "return vec4(E, V / 3.14159265358979323846);",
      "return vec4(E, V / 3.0);", "VCT: visibility normalised by 3 instead of pi"),
+    ("realtime/techniques/vct/vct_trace.glsl", "float a0 = clamp(front > 1e-6 ? front : s.a, 0.0, 1.0);",
+     "float a0 = clamp(s.a, 0.0, 1.0);", "VCT: a surface's back faces counted in the radiance's normalisation"),
     ("realtime/techniques/vct/vct_inject.comp", "L[f] = (1.0 - F) * kd / PI * (", "L[f] = (1.0 - F) * kd * (",
      "VCT: injection without 1/pi"),
     ("realtime/techniques/vct/vct_inject.comp", "put(f, q, cover[f / 2] * vec4(L[f], 1.0));",

@@ -41,7 +41,9 @@ reflectance. Cones read texels nearest (mip-linear), combine the axes' optical d
 transmittance, and a layer crossed at any angle keeps its optical depth) and keep the smaller transmittance of
 that and the finer level's whose texel is the step, read from the column texture (the texel's most covered
 column, split into up to four reads two levels finer: vct_trace.glsl derives both; no leak through a one-voxel
-wall). The cones start NORMAL_OFFSET_VOXELS
+wall). A sample's radiance is its faces' rgb over the opacity of those that can carry light toward the cone: a
+face black where the other way is lit is a surface's back on that axis, opaque but not counted (vct_front).
+The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
 the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
 level its cone's diameter gives, but never one whose lookup reaches the voxels of the surface it leaves
