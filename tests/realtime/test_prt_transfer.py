@@ -15,6 +15,7 @@ import pytest
 import trimesh
 from numpy.polynomial import legendre
 
+from realtime.engine.transfer_rays import EPSILON_FRACTION
 from realtime.techniques.prt import prt_transfer as prt
 from realtime.techniques.prt.prt_transfer import TransferObject, cached_transfer, transfer
 from scenes.environment.shbasis import count, sh_basis
@@ -139,7 +140,7 @@ def test_half_space_occluder_leaves_the_half_hemisphere_away_from_the_wall(order
     hemisphere = np.einsum("ik,i->k", y, w * d[:, 1])  # the unshadowed transfer
     ideal = np.einsum("ik,i->k", y, w * d[:, 1] * (d[:, 0] > 0))  # {w_y > 0, w_x > 0}; phi nodes avoid w_x = 0
     # the finite wall: exactly what it hides above each vertex's horizon (ray origin raised by eps)
-    eps = prt.EPSILON_FRACTION * np.linalg.norm([D + S, 2 * W, 2 * W])
+    eps = EPSILON_FRACTION * np.linalg.norm([D + S, 2 * W, 2 * W])
     expected = np.array([hemisphere - wall_integral(p + eps * up, lambda u: sh_basis(u, order) * u[..., 1:2])
                          for p in floor.positions])
     assert np.abs(expected - ideal).max() < 0.01  # a wall 100 x the distance is nearly the half-space
@@ -197,7 +198,7 @@ def test_one_bounce_gathers_the_interpolated_transfer_of_front_faces(facing_down
     interp = np.where(lower, (1 - s)[:, None, None] * src[0] + (s - r)[:, None, None] * src[1]
                       + r[:, None, None] * src[2],
                       (1 - r)[:, None, None] * src[0] + s[:, None, None] * src[2] + (r - s)[:, None, None] * src[3])
-    eps = prt.EPSILON_FRACTION * np.linalg.norm(ceiling.positions.max(0) - np.minimum(ceiling.positions.min(0),
+    eps = EPSILON_FRACTION * np.linalg.norm(ceiling.positions.max(0) - np.minimum(ceiling.positions.min(0),
                                                                                       floor.positions.min(0)))
     for v, p in enumerate(floor.positions):
         o = p + [0.0, eps, 0.0]

@@ -30,18 +30,12 @@ from realtime.engine import limits
 from realtime.engine.environment_maps import MapShProjector
 from realtime.engine.sh_orders import ShProjector
 from realtime.engine.technique import NO_CUBE, Frame, Technique
-from realtime.techniques.prt.prt_transfer import TransferObject, cached_transfer
+from realtime.engine.transfer_rays import transfer_objects
+from realtime.techniques.prt.prt_transfer import cached_transfer
 from realtime.techniques.prt.settings import effective_settings
 from scenes.environment import shbasis
 
 TRANSFER_BINDING = 7
-
-
-def transfer_objects(scene) -> list:
-    """The scene's objects as the precomputation's input (world-space arrays, each object's kd)."""
-    return [TransferObject(o.mesh.positions.astype(np.float64), o.mesh.normals.astype(np.float64), o.mesh.indices,
-                           tuple(float(c) for c in o.material.kd), bool(o.material.two_sided))
-            for o in scene.objects]
 
 
 class PrtDiffuse(Technique):

@@ -20,14 +20,13 @@ Shadowed, with the unshadowed transfer as a control variate (only the occluded p
 
 where w_j are R directions on the hemisphere about n with density cos / pi (so that
 int Y_k cos (1 - V) dw = E[pi Y_k (1 - V)]), and V_j = 1 when the ray from x + eps n escapes every
-object (any hit, front or back face, blocks it). Directions: a Fibonacci lattice of R points in the
-unit square, ((j + 1/2) / R, frac(j / phi)), shifted per vertex by a random Cranley-Patterson
-rotation (Cranley & Patterson 1976; seeded by `seed`: deterministic, and unbiased), mapped to the
-cosine-weighted hemisphere by r = sqrt(u1), phi = 2 pi u2 (Malley's method), in the frame of
-Duff et al. 2017 ("Building an orthonormal basis, revisited", JCGT 6(1)). eps = EPSILON_FRACTION x the
-diagonal of the bounding box of all objects. A vertex none of whose rays hit gets exactly the
-unshadowed transfer (subtracting nothing): a convex object with outward normals is bit for bit its
-unshadowed transfer, since the tangent plane of n supports it.
+object (any hit, front or back face, blocks it). Directions, eps and the any-hit rule are the shared
+rules of realtime/engine/transfer_rays.py (`hemisphere_hits`): a Fibonacci lattice of R points in the unit
+square shifted per vertex by a Cranley-Patterson rotation seeded by `seed` (deterministic, and unbiased),
+mapped to the cosine-weighted hemisphere by Malley's method in the frame of Duff et al. 2017; eps =
+EPSILON_FRACTION x the diagonal of the bounding box of all objects. A vertex none of whose rays hit gets
+exactly the unshadowed transfer (subtracting nothing): a convex object with outward normals is bit for bit
+its unshadowed transfer, since the tangent plane of n supports it.
 
 Interreflected (bounces >= 1, needs shadowed): Sloan's iterative gathering over the same rays:
 
@@ -46,10 +45,10 @@ enters the cache key. The hits (object, triangle, barycentrics) are found once, 
 gather matrix G (V x V, G[x, i] = sum of barycentric weights / R of the rays from x landing on
 triangles with vertex i), and reused for every bounce: T^b = G (kd (.) T^{b-1}).
 
-Rays: one trimesh.Trimesh of all objects (process=False) and its Embree intersector (embreex; no
-silent slow fallback: RuntimeError without it), first hits via `intersects_first` (Embree's
-watertight test; the hit point for the barycentrics is the ray / face-plane intersection in float64,
-barycentrics by `trimesh.triangles.points_to_barycentric`, clamped to the triangle). Vertices go in
+Rays: one mesh of all objects and its Embree intersector (`transfer_rays.intersector`: no silent slow
+fallback, RuntimeError without embreex), first hits via `intersects_first` (Embree's watertight test), the
+gather's rows by `transfer_rays.FrontGather` (the hit point for the barycentrics is the ray / face-plane
+intersection in float64, clamped to the triangle), over the same rays as the visibility. Vertices go in
 chunks of at most MAX_RAYS_PER_CHUNK rays and at most MAX_SH_VALUES_PER_CHUNK basis values (rays x
 coefficients; bounded memory for the SH evaluation of the occluded directions at orders up to 8: the same
 chunks as by rays alone up to order 4).
@@ -70,79 +69,38 @@ unwritable folder is a CacheWarning and the transfer is returned uncached.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
-import math
-import os
-import sys
 import time
 import warnings
 from collections.abc import Sequence
-from dataclasses import dataclass
 
 import numpy as np
-from rich import progress as rp
-from rich.console import Console
 from scipy import sparse
 
+from realtime.engine.transfer_rays import (
+    CheckedObject,
+    FrontGather,
+    TransferObject,
+    check_object,
+    epsilon,
+    hemisphere_hits,
+    intersector,
+    memory_limit,
+    merge,
+    progress_bar,
+)
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
 from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, write_npz
 
 #: bump when the transfer computed for the same inputs changes (invalidates the cache)
 TRANSFER_VERSION = 1
-#: ray origins are offset along the normal by this fraction of the scene's bounding-box diagonal
-EPSILON_FRACTION = 1e-4
 #: the most rays traced (and SH-evaluated) at once
 MAX_RAYS_PER_CHUNK = 1 << 19
 #: the most basis values (rays x coefficients) evaluated at once: order 4's 25 per ray at full chunks
 MAX_SH_VALUES_PER_CHUNK = MAX_RAYS_PER_CHUNK * 25
 #: supported SH orders (COSINE_BAND_FACTORS has bands 0..8; the GLSL evaluation starts at order 2)
 MIN_ORDER, MAX_ORDER = 2, len(COSINE_BAND_FACTORS) - 1
-_GOLDEN = (math.sqrt(5.0) - 1.0) / 2.0  # 1 / phi
-
-
-@dataclass(frozen=True, eq=False)  # eq=False: arrays have no truth value (as scenes.geometry.meshes.Mesh)
-class TransferObject:
-    positions: np.ndarray  # (V, 3) world space
-    normals: np.ndarray  # (V, 3) unit (per-vertex shading normals)
-    indices: np.ndarray  # (T, 3) int, counter-clockwise seen from the front
-    kd: tuple[float, float, float]  # diffuse albedo (RGB) of the object (for bounces)
-    two_sided: bool = False
-
-
-@dataclass(frozen=True)
-class _Checked:
-    positions: np.ndarray  # (V, 3) float64
-    normals: np.ndarray  # (V, 3) float64, unit
-    indices: np.ndarray  # (T, 3) int64
-    kd: np.ndarray  # (3,) float64
-
-
-def _check_object(i: int, obj: TransferObject) -> _Checked:
-    what = f"PRT object {i}"
-    p = np.asarray(obj.positions, dtype=np.float64)
-    n = np.asarray(obj.normals, dtype=np.float64)
-    idx = np.asarray(obj.indices)
-    kd = np.asarray(obj.kd, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
-        raise ValueError(f"{what}: positions must be (V, 3) with V > 0, got shape {p.shape}")
-    if n.shape != p.shape:
-        raise ValueError(f"{what}: normals have shape {n.shape}, positions {p.shape}")
-    if idx.ndim != 2 or idx.shape[1] != 3 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
-        raise ValueError(f"{what}: indices must be (T, 3) integers, got shape {idx.shape} {idx.dtype}")
-    if kd.shape != (3,):
-        raise ValueError(f"{what}: kd must be 3 values (RGB), got shape {kd.shape}")
-    for name, a in (("positions", p), ("normals", n), ("kd", kd)):
-        if not np.isfinite(a).all():
-            raise ValueError(f"{what}: {name} contain NaN or Inf")
-    idx = idx.astype(np.int64)
-    if idx.size and (idx.min() < 0 or idx.max() >= len(p)):
-        raise ValueError(f"{what}: triangle indices out of range (0..{len(p) - 1})")
-    length = np.linalg.norm(n, axis=1)
-    if (length < 1e-6).any():
-        raise ValueError(f"{what}: {(length < 1e-6).sum()} normals have zero length")
-    return _Checked(p, n / length[:, None], idx, kd)
 
 
 def _check_settings(order: int, rays: int, bounces: int, shadowed: bool) -> None:
@@ -156,11 +114,6 @@ def _check_settings(order: int, rays: int, bounces: int, shadowed: bool) -> None
     if bounces and not shadowed:
         raise ValueError(f"PRT bounces = {bounces} needs shadowed transfer (interreflection gathers over the "
                          "visibility rays)")
-
-
-def memory_limit() -> int:
-    """The most host bytes a transfer may plan for: half the machine's physical memory."""
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
 
 
 def _chunk_vertices(order: int, rays: int) -> int:
@@ -196,122 +149,35 @@ def _unshadowed(normals: np.ndarray, order: int) -> np.ndarray:
     return sh_basis(normals, order) * COSINE_BAND_FACTORS[band_of(order)]
 
 
-def _frames(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Tangent and bitangent of unit normals n (V, 3) (Duff et al. 2017), each (V, 3)."""
-    x, y, z = n[:, 0], n[:, 1], n[:, 2]
-    s = np.where(z >= 0.0, 1.0, -1.0)
-    a = -1.0 / (s + z)
-    b = x * y * a
-    t = np.stack([1.0 + s * x * x * a, s * b, -s * x], axis=1)
-    bt = np.stack([b, s + y * y * a, -y], axis=1)
-    return t, bt
-
-
-def _lattice(rays: int) -> np.ndarray:
-    """The Fibonacci lattice of `rays` points in [0, 1)^2: (R, 2)."""
-    j = np.arange(rays, dtype=np.float64)
-    return np.stack([(j + 0.5) / rays, np.mod(j * _GOLDEN, 1.0)], axis=1)
-
-
-def _directions(n: np.ndarray, shifts: np.ndarray, lattice: np.ndarray) -> np.ndarray:
-    """Cosine-weighted directions (V, R, 3) about unit normals n (V, 3): the lattice (R, 2) shifted
-    by each vertex's Cranley-Patterson rotation shifts (V, 2)."""
-    u = np.mod(lattice[None, :, :] + shifts[:, None, :], 1.0)
-    r = np.sqrt(u[..., 0])
-    phi = 2.0 * np.pi * u[..., 1]
-    lx, ly = r * np.cos(phi), r * np.sin(phi)
-    lz = np.sqrt(np.maximum(1.0 - u[..., 0], 0.0))
-    t, bt = _frames(n)
-    return lx[..., None] * t[:, None, :] + ly[..., None] * bt[:, None, :] + lz[..., None] * n[:, None, :]
-
-
-def _intersector(vertices: np.ndarray, faces: np.ndarray):
-    """(trimesh.Trimesh, its Embree intersector); RuntimeError without embreex."""
-    import trimesh  # deferred: heavy (about 0.3 s), only the precomputation needs it
-
-    try:
-        from trimesh.ray import ray_pyembree  # deferred: embreex is optional; refused with a reason below
-    except ImportError as exc:
-        raise RuntimeError("PRT visibility needs Embree: the embreex package is missing (pip install embreex); "
-                           "there is no slow fallback") from exc
-    mesh = trimesh.Trimesh(vertices=vertices, faces=faces, process=False)
-    ray = mesh.ray
-    if not isinstance(ray, ray_pyembree.RayMeshIntersector):
-        raise RuntimeError(f"PRT visibility needs Embree, but trimesh gave {type(ray).__module__}."
-                           f"{type(ray).__name__}: the embreex package is missing (pip install embreex)")
-    return mesh, ray
-
-
-def _progress(total: int, enabled: bool):
-    if not enabled:
-        return contextlib.nullcontext(None)
-    columns = [rp.TextColumn("[bold]prt"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
-               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
-    # on stderr, and only on a terminal: CI logs and pipes never see the bar
-    return rp.Progress(*columns, console=Console(stderr=True), disable=not sys.stderr.isatty())
-
-
-def _trace(objs: list[_Checked], order: int, rays: int, bounces: int, seed: int, progress: bool,
+def _trace(objs: list[CheckedObject], order: int, rays: int, bounces: int, seed: int, progress: bool,
            base: np.ndarray):
     """Shadowed transfer (V, K) float64 of all vertices, and the gather matrix (V x V CSR) when bounces > 0."""
-    import trimesh  # deferred: heavy (about 0.3 s), only the precomputation needs it
-    sizes = [len(o.positions) for o in objs]
-    offsets = np.concatenate([[0], np.cumsum(sizes)])
-    v_total = int(offsets[-1])
-    positions = np.concatenate([o.positions for o in objs])
-    normals = np.concatenate([o.normals for o in objs])
-    faces = np.concatenate([o.indices + off for o, off in zip(objs, offsets[:-1], strict=True)])
+    scene = merge(objs)
+    v_total = len(scene.positions)
     shadowed = base.copy()
     gather_rows = []
-    # per-vertex Cranley-Patterson rotations, drawn once for all vertices: chunking does not change them
-    shifts = np.random.default_rng(seed).random((v_total, 2))
-    lattice = _lattice(rays)
     chunk = _chunk_vertices(order, rays)
     starts = range(0, v_total, chunk)
-    if len(faces) == 0:  # nothing to hit: every ray escapes
+    if len(scene.faces) == 0:  # nothing to hit: every ray escapes
         return shadowed, (sparse.csr_matrix((v_total, v_total)) if bounces else None)
-    diagonal = float(np.linalg.norm(positions.max(axis=0) - positions.min(axis=0)))
-    eps = EPSILON_FRACTION * max(diagonal, 1e-12)
-    mesh, ray = _intersector(positions, faces)
-    if bounces:
-        p0 = positions[faces[:, 0]]
-        face_n = np.cross(positions[faces[:, 1]] - p0, positions[faces[:, 2]] - p0)
-        triangles = positions[faces]
-    with _progress(len(starts), progress) as bar:
+    ray = intersector(scene.positions, scene.faces, "PRT")
+    gather = FrontGather(scene.positions, scene.faces) if bounces else None
+    with progress_bar("prt", progress) as bar:
         task = bar.add_task(f"{v_total} vertices x {rays} rays", total=len(starts)) if bar is not None else None
-        for s in starts:
-            e = min(s + chunk, v_total)
-            n = normals[s:e]
-            d = _directions(n, shifts[s:e], lattice)  # (c, R, 3)
-            origins = np.repeat(positions[s:e] + eps * n, rays, axis=0)
-            tri = ray.intersects_first(origins, d.reshape(-1, 3))  # (c R,), -1 = escaped
-            hit = (tri >= 0).reshape(e - s, rays)
+        for hits in hemisphere_hits(ray, scene.positions, scene.normals, rays, seed, epsilon(scene.positions), chunk):
+            s, e = hits.start, hits.end
+            hit = (hits.triangles >= 0).reshape(e - s, rays)
             per_vertex = hit.sum(axis=1)
             some = per_vertex > 0
             if some.any():
-                y = sh_basis(d[hit], order)  # rows in vertex order (row-major mask)
+                y = sh_basis(hits.directions[hit], order)  # rows in vertex order (row-major mask)
                 first = np.concatenate([[0], np.cumsum(per_vertex)[:-1]])[some]
                 shadowed[s:e][some] -= (np.pi / rays) * np.add.reduceat(y, first, axis=0)
-            if bounces:
-                flat = np.flatnonzero(tri >= 0)
-                t_hit = tri[flat]
-                dirs = d.reshape(-1, 3)[flat]
-                dn = np.einsum("ij,ij->i", dirs, face_n[t_hit])
-                front = dn < 0.0
-                flat, t_hit, dirs, dn = flat[front], t_hit[front], dirs[front], dn[front]
-                o = origins[flat]
-                dist = np.einsum("ij,ij->i", p0[t_hit] - o, face_n[t_hit]) / dn
-                bary = trimesh.triangles.points_to_barycentric(triangles[t_hit], o + dist[:, None] * dirs)
-                bary = np.clip(np.nan_to_num(bary, nan=0.0), 0.0, None)
-                total = bary.sum(axis=1, keepdims=True)
-                bary = np.where(total > 0.0, bary / np.where(total > 0.0, total, 1.0), 1.0 / 3.0)
-                rows = np.repeat(flat // rays, 3)
-                g = sparse.coo_matrix((bary.ravel() / rays, (rows, faces[t_hit].ravel())), shape=(e - s, v_total))
-                gather_rows.append(g.tocsr())
+            if gather is not None:
+                gather_rows.append(gather.rows(hits, rays))
             if bar is not None:
                 bar.advance(task)
-    gather = sparse.vstack(gather_rows, format="csr") if bounces else None
-    return shadowed, gather
+    return shadowed, (sparse.vstack(gather_rows, format="csr") if bounces else None)
 
 
 def _transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
@@ -321,7 +187,7 @@ def _transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces:
     _check_settings(order, rays, bounces, shadowed)
     if len(objects) == 0:
         raise ValueError("PRT needs at least one object")
-    objs = [_check_object(i, o) for i, o in enumerate(objects)]
+    objs = [check_object(f"PRT object {i}", o) for i, o in enumerate(objects)]
     check_memory(sum(len(o.positions) for o in objs), order, rays, bounces, shadowed)
     base = np.concatenate([_unshadowed(o.normals, order) for o in objs])  # (V, K)
     traced = 0
@@ -459,7 +325,7 @@ def cached_transfer(objects: Sequence[TransferObject], order: int, rays: int, bo
     came from the cache (then `cached` is True and `seconds` 0: none were traced now).
     """
     _check_settings(int(order), int(rays), int(bounces), shadowed)
-    objs = [_check_object(i, o) for i, o in enumerate(objects)]  # validate before hashing
+    objs = [check_object(f"PRT object {i}", o) for i, o in enumerate(objects)]  # validate before hashing
     key = transfer_key(objects, order, rays, bounces, shadowed, seed)
     folder = cache_dir() / "prt"
     vertices = sum(len(o.positions) for o in objs)

@@ -20,22 +20,15 @@ lobe is transferred (`unsimulated_effects` says "glossy occlusion").
 from __future__ import annotations
 
 import moderngl
-import numpy as np
 
 from realtime.engine.technique import NO_CUBE, Frame, Technique
+from realtime.engine.transfer_rays import transfer_objects
 from realtime.techniques.wavelet_prt.settings import effective_settings
 from realtime.techniques.wavelet_prt.wavelet_gpu import WaveletLighting, WaveletObject
-from realtime.techniques.wavelet_prt.wavelet_transfer import TransferObject, cached_transfer
+from realtime.techniques.wavelet_prt.wavelet_transfer import cached_transfer
 from scenes.storage.errors import SceneError
 
 IRRADIANCE_BINDING = 7  # wavelet_vertex.glsl
-
-
-def transfer_objects(scene) -> list[TransferObject]:
-    """The scene's objects as the precomputation's input (world-space arrays, each object's kd)."""
-    return [TransferObject(o.mesh.positions.astype(np.float64), o.mesh.normals.astype(np.float64), o.mesh.indices,
-                           tuple(float(c) for c in o.material.kd), bool(o.material.two_sided))
-            for o in scene.objects]
 
 
 class WaveletDiffuse(Technique):

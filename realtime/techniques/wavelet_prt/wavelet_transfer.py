@@ -8,12 +8,13 @@ a cube map of `cube_size` texels per face side, texel t of centre direction w_t 
     E(v) = sum_t L_t T_v[t],    T_v[t] = V(x_v, w_t) max(0, n_v . w_t) dOmega_t
 
 (a midpoint quadrature of int L V cos dw over the cube's texels). V is one Embree ray per texel with
-n_v . w_t > 0, from x_v + eps n_v (rays.py: PRT's eps and any-hit rule); unshadowed (occlusion off) V = 1.
-T is irradiance transfer: the shader multiplies by the receiver's kd / pi, as PRT's.
+n_v . w_t > 0, from x_v + eps n_v (realtime/engine/transfer_rays.py: the eps and any-hit rule PRT's rays
+follow too); unshadowed (occlusion off) V = 1. T is irradiance transfer: the shader multiplies by the
+receiver's kd / pi, as PRT's.
 
 Bounces (interreflection, needs shadows): T = sum_{b=0..bounces} T^b, T^0 as above and
-T^b = G (kd (.) T^{b-1}) with G the gather matrix of the hemisphere rays (rays.py), so T has one row per colour
-channel when bounces > 0 (kd per channel), one shared row otherwise.
+T^b = G (kd (.) T^{b-1}) with G the gather matrix of the hemisphere rays (transfer_rays.gather_matrix, PRT's
+gather), so T has one row per colour channel when bounces > 0 (kd per channel), one shared row otherwise.
 
 Each face of T_v is Haar-transformed (haar.py: orthonormal, non-standard), so E = sum_j l_j w_v[j] with l the
 lighting's Haar coefficients and w_v = W T_v (W orthogonal: the dot product is unchanged).
@@ -39,21 +40,18 @@ CacheWarning, an unwritable folder warns.
 
 from __future__ import annotations
 
-import contextlib
 import hashlib
 import json
-import os
-import sys
 import time
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from rich import progress as rp
-from rich.console import Console
 
-from realtime.techniques.wavelet_prt import haar, rays
+from realtime.engine import transfer_rays
+from realtime.engine.transfer_rays import TransferObject, memory_limit
+from realtime.techniques.wavelet_prt import haar
 from scenes.environment import cubemap
 from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, write_npz
 
@@ -61,15 +59,6 @@ from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, wr
 TRANSFER_VERSION = 1
 #: the most texel rays (vertices x texels) handled at once
 MAX_TEXELS_PER_CHUNK = 1 << 21
-
-
-@dataclass(frozen=True, eq=False)  # eq=False: arrays have no truth value
-class TransferObject:
-    positions: np.ndarray  # (V, 3) world space
-    normals: np.ndarray  # (V, 3) unit shading normals
-    indices: np.ndarray  # (T, 3) int, counter-clockwise seen from the front
-    kd: tuple[float, float, float]  # diffuse albedo (RGB), for bounces
-    two_sided: bool = False
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,37 +130,6 @@ def _check_settings(cube_size: int, threshold: float, rays_: int, bounces: int, 
         raise ValueError(f"wavelet PRT rays must be >= 1, got {rays_}")
 
 
-def _check_object(i: int, obj: TransferObject) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    what = f"wavelet PRT object {i}"
-    p = np.asarray(obj.positions, dtype=np.float64)
-    n = np.asarray(obj.normals, dtype=np.float64)
-    idx = np.asarray(obj.indices)
-    kd = np.asarray(obj.kd, dtype=np.float64)
-    if p.ndim != 2 or p.shape[1] != 3 or len(p) == 0:
-        raise ValueError(f"{what}: positions must be (V, 3) with V > 0, got shape {p.shape}")
-    if n.shape != p.shape:
-        raise ValueError(f"{what}: normals have shape {n.shape}, positions {p.shape}")
-    if idx.ndim != 2 or idx.shape[1] != 3 or (idx.size and not np.issubdtype(idx.dtype, np.integer)):
-        raise ValueError(f"{what}: indices must be (T, 3) integers, got shape {idx.shape} {idx.dtype}")
-    if kd.shape != (3,):
-        raise ValueError(f"{what}: kd must be 3 values (RGB), got shape {kd.shape}")
-    for name, a in (("positions", p), ("normals", n), ("kd", kd)):
-        if not np.isfinite(a).all():
-            raise ValueError(f"{what}: {name} contain NaN or Inf")
-    idx = idx.astype(np.int64)
-    if idx.size and (idx.min() < 0 or idx.max() >= len(p)):
-        raise ValueError(f"{what}: triangle indices out of range (0..{len(p) - 1})")
-    length = np.linalg.norm(n, axis=1)
-    if (length < 1e-6).any():
-        raise ValueError(f"{what}: {(length < 1e-6).sum()} normals have zero length")
-    return p, n / length[:, None], idx, kd
-
-
-def memory_limit() -> int:
-    """The most host bytes a transfer may plan for: half the machine's physical memory."""
-    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES") // 2
-
-
 def _chunk(cube_size: int) -> int:
     return max(1, MAX_TEXELS_PER_CHUNK // (6 * cube_size * cube_size))
 
@@ -201,15 +159,6 @@ def check_memory(vertices: int, cube_size: int, bounces: int) -> None:
                           "memory): lower realtime.wavelet_prt.cube_size or the mesh resolution")
 
 
-def _progress(enabled: bool):
-    if not enabled:
-        return contextlib.nullcontext(None)
-    columns = [rp.TextColumn("[bold]wavelet prt"), rp.BarColumn(), rp.MofNCompleteColumn(), rp.TimeElapsedColumn(),
-               rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
-    # on stderr, and only on a terminal: CI logs and pipes never see the bar
-    return rp.Progress(*columns, console=Console(stderr=True), disable=not sys.stderr.isatty())
-
-
 def _sparsify(w: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(counts (c,), indices (nnz,), values (nnz, C)) of Haar rows w (c, N, C) by the storage rule."""
     m = np.abs(w).max(axis=2)  # (c, N)
@@ -227,7 +176,7 @@ def _texel_rows(ray, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, omega: np.n
     if not shadowed or ray is None:
         return t, 0
     vi, ti = np.nonzero(front)
-    seen = rays.visible(ray, p[vi] + eps * n[vi], dirs[ti])
+    seen = transfer_rays.visible(ray, p[vi] + eps * n[vi], dirs[ti])
     t[vi[~seen], ti[~seen]] = 0.0
     return t, len(vi)
 
@@ -245,26 +194,23 @@ def _transfer(objects: Sequence[TransferObject], cube_size: int, threshold: floa
     _check_settings(cube_size, threshold, rays_, bounces, shadowed)
     if len(objects) == 0:
         raise ValueError("wavelet PRT needs at least one object")
-    objs = [_check_object(i, o) for i, o in enumerate(objects)]
-    sizes = [len(o[0]) for o in objs]
-    v_total = sum(sizes)
+    objs = [transfer_rays.check_object(f"wavelet PRT object {i}", o) for i, o in enumerate(objects)]
+    scene = transfer_rays.merge(objs)
+    positions, normals, faces, offsets = scene.positions, scene.normals, scene.faces, scene.offsets
+    v_total = len(positions)
     check_memory(v_total, cube_size, bounces)
-    positions = np.concatenate([o[0] for o in objs])
-    normals = np.concatenate([o[1] for o in objs])
-    offsets = np.concatenate([[0], np.cumsum(sizes)])
-    faces = np.concatenate([o[2] + off for o, off in zip(objs, offsets[:-1], strict=True)])
     dirs = cubemap.texel_directions(cube_size).reshape(-1, 3)
     omega = np.tile(cubemap.texel_solid_angles(cube_size).reshape(-1), 6)
     ray = None
-    eps = rays.epsilon(positions)
+    eps = transfer_rays.epsilon(positions)
     if shadowed and len(faces):
-        _, ray = rays.intersector(positions, faces)
+        ray = transfer_rays.intersector(positions, faces, "wavelet PRT")
     chunk = _chunk(cube_size)
     starts = range(0, v_total, chunk)
     counts, idx_parts, val_parts = [], [], []
     traced = 0
     dense = np.zeros((v_total, len(dirs)), dtype=np.float32) if bounces else None
-    with _progress(progress) as bar:
+    with transfer_rays.progress_bar("wavelet prt", progress) as bar:
         task = bar.add_task(f"{v_total} vertices x {len(dirs)} texels", total=len(starts)) if bar is not None else None
         for s in starts:
             e = min(s + chunk, v_total)
@@ -280,8 +226,8 @@ def _transfer(objects: Sequence[TransferObject], cube_size: int, threshold: floa
             if bar is not None:
                 bar.advance(task)
     if bounces:
-        kd = np.concatenate([np.broadcast_to(o[3], (len(o[0]), 3)) for o in objs]).astype(np.float32)
-        gather = rays.gather_matrix(ray, positions, normals, faces, rays_, seed, eps).astype(np.float32) \
+        kd = np.concatenate([np.broadcast_to(o.kd, (len(o.positions), 3)) for o in objs]).astype(np.float32)
+        gather = transfer_rays.gather_matrix(ray, positions, normals, faces, rays_, seed, eps).astype(np.float32) \
             if ray is not None else None
         total = np.repeat(dense[:, :, None], 3, axis=2)
         tb = total.copy()
@@ -419,8 +365,8 @@ def cached_transfer(objects: Sequence[TransferObject], cube_size: int, threshold
     "seconds" (0 when read from the cache), "compute_seconds" (what computing it took), "rays_traced",
     "vertices", "entries" (stored coefficients), "bytes" (GPU bytes of all objects), "bytes_per_vertex"}."""
     _check_settings(int(cube_size), float(threshold), int(rays_), int(bounces), shadowed)
-    checked = [_check_object(i, o) for i, o in enumerate(objects)]
-    vertices = [len(o[0]) for o in checked]
+    checked = [transfer_rays.check_object(f"wavelet PRT object {i}", o) for i, o in enumerate(objects)]
+    vertices = [len(o.positions) for o in checked]
     check_memory(sum(vertices), int(cube_size), int(bounces))  # before any cache read or trace
     key = transfer_key(objects, cube_size, threshold, rays_, bounces, shadowed, seed)
     folder = cache_dir() / "wavelet_prt"
