@@ -254,13 +254,7 @@ def family(r: ResultRow) -> str:
 def plot(per_scene: dict, path) -> None:
     """Unbiased PSNR against frame ms per scene, one colour per technique family, the Pareto front and the
     path tracer's spp ladder."""
-    plt = plots.pyplot()
-    n = len(per_scene)
-    cols = min(n, 3)
-    rows_n = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows_n, cols, figsize=(4.6 * cols, 4.0 * rows_n), squeeze=False)
-    for ax in axes.flat[n:]:
-        ax.set_visible(False)
+    fig, axes = plots.panel_grid(len(per_scene), 4.6, 4.0)
     for ax, (label, (rows, curve)) in zip(axes.flat, per_scene.items(), strict=False):
         pts = plots.scatter_families(ax, rows, family)
         if pts:

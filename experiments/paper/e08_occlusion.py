@@ -30,7 +30,7 @@ from experiments.measure import convergence, metrics
 from experiments.measure.results import ResultRow
 from experiments.paper import e08_sharp_shadows as sharp
 from experiments.paper.context import Context
-from experiments.paper.e08_overrides import fits, lights_ov, prt_ov
+from experiments.paper.e08_overrides import fits, lights_label, lights_ov, prt_ov
 from experiments.publish import plots, report
 from experiments.publish.plots import frame_ms
 from experiments.publish.report import Section, f2, f3, unbiased_cell
@@ -111,13 +111,7 @@ def label(r: ResultRow) -> str:
         if t.get("occlusion") != "prt":
             return f"PRT order {p.get('order')} unshadowed"
         return f"PRT order {p.get('order')}, {p.get('rays')} rays, {p.get('bounces', 0)} bounces"
-    if "lights" in (t.get("diffuse"), t.get("glossy")):
-        lights = t.get("lights", {})
-        out = f"{lights.get('count')} lights {lights.get('placement').replace('_', ' ')}"
-        if t.get("occlusion") == "shadow_maps":
-            out += f" + shadow maps {lights.get('shadow_map_size')}"
-        return out
-    return "paper"
+    return lights_label(t) or "paper"
 
 
 def precompute_s(r: ResultRow) -> float | None:

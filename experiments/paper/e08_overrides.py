@@ -35,6 +35,17 @@ def wavelet_ov(cube_size: int, terms: int, bounces: int) -> dict:
     return ov
 
 
+def lights_label(t: dict) -> str | None:
+    """The label of a row whose techniques `t` use the light array (with its shadow maps); None otherwise."""
+    if "lights" not in (t.get("diffuse"), t.get("glossy")):
+        return None
+    lights = t.get("lights", {})
+    out = f"{lights.get('count')} lights {str(lights.get('placement')).replace('_', ' ')}"
+    if t.get("occlusion") == "shadow_maps":
+        out += f" + shadow maps {lights.get('shadow_map_size')}"
+    return out
+
+
 def fits(count: int, size: int) -> bool:
     """Whether `count` shadow maps of `size`^2 texels fit the maps' memory budget."""
     return count * size * size <= MAX_SHADOW_TEXELS

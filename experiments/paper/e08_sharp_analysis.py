@@ -14,6 +14,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass
 
+from experiments.paper.e08_overrides import lights_label
+
 MARGIN_DB = 6.0  # the gain wavelet PRT must show over the best SH order
 TIME_FACTOR = 2.0  # ... at a frame time at most this multiple of that SH row's
 SATURATION_DB = 0.5  # a K within this of the best K at its cube size has saturated
@@ -58,13 +60,7 @@ def label(t: dict) -> str:
     if t.get("diffuse") == "wavelet_prt":
         w = t.get("wavelet_prt", {})
         return f"wavelet PRT cube {w.get('cube_size')}, K = {w.get('terms')} ({w.get('bounces', 0)} bounces)"
-    if "lights" in (t.get("diffuse"), t.get("glossy")):
-        lights = t.get("lights", {})
-        out = f"{lights.get('count')} lights {str(lights.get('placement')).replace('_', ' ')}"
-        if t.get("occlusion") == "shadow_maps":
-            out += f" + shadow maps {lights.get('shadow_map_size')}"
-        return out
-    return PAPER
+    return lights_label(t) or PAPER
 
 
 def saturation(points: Sequence[tuple[int, float | None]], tol_db: float = SATURATION_DB) -> int | None:

@@ -40,13 +40,7 @@ def crop(image: np.ndarray, corner: tuple[int, int], size: int) -> np.ndarray:
 
 def plot(panels: Sequence[tuple[str, list, list]], family, path: Path) -> None:
     """Unbiased PSNR against frame ms, one panel per (title, rows, spp ladder), the path tracer's ladder on each."""
-    plt = plots.pyplot()
-    n = len(panels)
-    cols = min(n, 3)
-    rows = (n + cols - 1) // cols
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.4 * rows), squeeze=False)
-    for ax in axes.flat[n:]:
-        ax.axis("off")
+    fig, axes = plots.panel_grid(len(panels), 5.2, 4.4)
     for ax, (title, found, curve) in zip(axes.flat, panels, strict=False):
         plots.scatter_families(ax, found, family, markers=MARKERS, size=16)
         plots.finish_accuracy_time_axes(ax, curve, title, legend_size=5)

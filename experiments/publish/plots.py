@@ -38,6 +38,18 @@ def save(fig, path: Path, dpi: int = 90) -> None:
     pyplot().close(fig)
 
 
+def panel_grid(n: int, width: float, height: float, cols: int = 3):
+    """A figure of n panels of `width` x `height` inches, at most `cols` a row: (fig, axes (rows, cols)), the
+    panels past the n-th hidden."""
+    plt = pyplot()
+    cols = max(1, min(n, cols))
+    rows = (n + cols - 1) // cols
+    fig, axes = plt.subplots(rows, cols, figsize=(width * cols, height * rows), squeeze=False)
+    for ax in axes.flat[n:]:
+        ax.set_visible(False)
+    return fig, axes
+
+
 def pareto_front(times: np.ndarray, scores: np.ndarray) -> np.ndarray:
     """Indices of the points no other point beats in both (less time, higher score), by time."""
     order = np.lexsort((-scores, times))

@@ -109,21 +109,12 @@ def test_constant_map_stays_constant_for_every_exponent(bias):
     cube.release()
 
 
-@pytest.fixture(scope="module")
-def probe_level0():
-    f = EnvironmentFilter(get_context(), environments.builtin("uffizi"), 64)
-    f.fill_base(0.0)
-    f.build_chain()
-    yield f.cube, f.read_level(0)
-    f.release()
-
-
 @pytest.mark.parametrize("exponent", [1.0, 10.0, 100.0])
-def test_gpu_is_the_texel_sum_within_the_monte_carlo_bound(probe_level0, exponent):
+def test_gpu_is_the_texel_sum_within_the_monte_carlo_bound(uffizi_64, exponent):
     # FIS off: the mean of `samples` lobe samples of level 0 against the exact lobe-weighted texel
     # sum. A Monte Carlo estimate errs by ~sigma / sqrt(samples), sigma^2 the lobe-weighted
     # variance of L; k = 4 is conservative for a low-discrepancy set.
-    cube, level0 = probe_level0
+    cube, level0 = uffizi_64
     samples, level = 256, 2
     got = prefiltered(cube, exponent, samples, NO_FIS, level)
     rng = np.random.default_rng(11)
@@ -217,8 +208,8 @@ def test_extreme_exponents_on_a_1e6_sun_write_finite_values(exponent):
     f.release()
 
 
-def test_rejects_a_source_of_another_size(probe_level0):
-    cube, _ = probe_level0
+def test_rejects_a_source_of_another_size(uffizi_64):
+    cube, _ = uffizi_64
     p = PhongPrefilter(get_context(), 32, 10.0, 16)
     with pytest.raises(ValueError, match="face size 64"):
         p.run(cube, 0)

@@ -111,15 +111,6 @@ def test_a_constant_map_stays_constant_at_every_level(sampling, bias):
         cube.release()
 
 
-@pytest.fixture(scope="module")
-def probe():
-    f = EnvironmentFilter(get_context(), environments.builtin("uffizi"), 64)
-    f.fill_base(0.0)
-    f.build_chain()
-    yield f.cube, f.read_level(0)
-    f.release()
-
-
 def bound(level0: np.ndarray, n: np.ndarray, roughness: float, samples: int):
     """(exact P(n), 4 sigma / sqrt(samples)): the lobe-weighted texel mean and the spread of the n.l-weighted
     ratio estimator sum L n.l / sum n.l under the sampling density D(h) / 4 over l (the texels' D dOmega)."""
@@ -136,12 +127,12 @@ def bound(level0: np.ndarray, n: np.ndarray, roughness: float, samples: int):
 
 
 @pytest.mark.parametrize("roughness", [0.3, 0.6])
-def test_gpu_level_is_the_exact_texel_sum_within_the_sampling_bound(probe, roughness):
+def test_gpu_level_is_the_exact_texel_sum_within_the_sampling_bound(uffizi_64, roughness):
     """FIS off: a 16-texel level of `roughness` from the 64-texel source against the exact n = v = r GGX
     texel sum of the source at 12 texels, within 4 sigma / sqrt(N) of the ratio estimator (measured: at most
     0.3 of the bound). The same check rejects the exact sum at another roughness (0.45 for 0.3, 0.8 for
     0.6: 5 and 1 of the 12 texels outside; the control)."""
-    cube, level0 = probe
+    cube, level0 = uffizi_64
     samples = 256
     got = chain_of([mappings.Level(roughness, 16)], cube, samples, NO_FIS)[0]
     idx = tuple(np.random.default_rng(5).integers(0, [6, 16, 16], size=(12, 3)).T)
@@ -154,10 +145,10 @@ def test_gpu_level_is_the_exact_texel_sum_within_the_sampling_bound(probe, rough
     assert not np.all(np.abs(got[idx] - wrong) <= tol)
 
 
-def test_vndf_and_importance_chains_agree(probe):
+def test_vndf_and_importance_chains_agree(uffizi_64):
     """256 samples: the two samplings draw one set of directions (test_split_sum_tables), so the levels agree
     to float32 rounding."""
-    cube, _ = probe
+    cube, _ = uffizi_64
     levels = mappings.chain_levels("linear", 32, 8)
     a = chain_of(levels, cube, 256, 0.0, "importance")
     b = chain_of(levels, cube, 256, 0.0, "vndf")
@@ -176,8 +167,8 @@ def test_a_1e6_sun_gives_finite_levels_at_roughness_zero_and_one():
         f.release()
 
 
-def test_rejects_a_source_of_another_size(probe):
-    cube, _ = probe
+def test_rejects_a_source_of_another_size(uffizi_64):
+    cube, _ = uffizi_64
     c = GGXChain(get_context(), [mappings.Level(0.5, 8)], 32, [16])
     with pytest.raises(ValueError, match="face size 64"):
         c.run(cube)
