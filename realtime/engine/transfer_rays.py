@@ -5,8 +5,9 @@ same bounces). Techniques never import each other, so the rules both must follow
 here, below them:
 
 - the input: `TransferObject` (world-space positions, unit normals, counter-clockwise triangles, kd,
-  two_sided), `transfer_objects(scene)` building them from a scene, and `check_object`, which refuses what
-  a transfer cannot use (shapes, NaN or Inf, indices out of range, zero normals) naming the object;
+  two_sided), `transfer_objects(scene)` building them from a scene, `check_object`, which refuses what a
+  transfer cannot use (shapes, NaN or Inf, indices out of range, zero normals) naming the object, and
+  `check_bounces`;
 - the scene as one mesh (`merge`) and its Embree intersector (`intersector`: trimesh + embreex, Embree's
   watertight test; no slow fallback, RuntimeError without embreex);
 - ray origins x + eps n, eps = EPSILON_FRACTION x the diagonal of the bounding box of all objects (`epsilon`);
@@ -23,12 +24,16 @@ here, below them:
   matrix G (V x V), G[x, i] = sum of the barycentric weights / R of x's rays landing on triangles with vertex i,
   a bounce is T^b = G (kd (.) T^{b-1}). (Derivation: the Lambertian radiance leaving y is kd / pi E(y); with
   density cos / pi the irradiance it gives x is estimated by (1 / R) sum kd E(y_j): the pi's cancel.);
-- the host-memory budget (`memory_limit`) and the progress bar (`progress_bar`).
+- the host-memory budget (`memory_limit`) and the progress bar (`progress_bar`);
+- the digests of the two disk caches: a cache key over the settings and every object's arrays (`cache_key`)
+  and the checksum of an entry's arrays and metadata (`entry_checksum`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
+import json
 import math
 import os
 import sys
@@ -39,6 +44,8 @@ import numpy as np
 from rich import progress as rp
 from rich.console import Console
 from scipy import sparse
+
+from scenes.storage.disk_cache import digest_arrays
 
 #: ray origins are offset along the normal by this fraction of the scene's bounding-box diagonal
 EPSILON_FRACTION = 1e-4
@@ -105,6 +112,16 @@ def check_object(what: str, obj: TransferObject) -> CheckedObject:
     return CheckedObject(p, n / length[:, None], idx, kd)
 
 
+def check_bounces(who: str, bounces: int, shadowed: bool) -> None:
+    """ValueError starting with `who` (e.g. "PRT") for bounces < 0, or bounces without shadowed transfer (the
+    bounces gather over the hemisphere rays, which only a shadowed transfer traces)."""
+    if bounces < 0:
+        raise ValueError(f"{who} bounces must be >= 0, got {bounces}")
+    if bounces and not shadowed:
+        raise ValueError(f"{who} bounces = {bounces} needs shadowed transfer (interreflection gathers over the "
+                         "visibility rays)")
+
+
 @dataclass(frozen=True, eq=False)
 class Merged:
     """All objects as one mesh: the vertices of object i are rows offsets[i]:offsets[i + 1]."""
@@ -137,6 +154,26 @@ def progress_bar(label: str, enabled: bool):
                rp.TextColumn("eta"), rp.TimeRemainingColumn(), rp.TextColumn("{task.description}", markup=False)]
     # on stderr, and only on a terminal: CI logs and pipes never see the bar
     return rp.Progress(*columns, console=Console(stderr=True), disable=not sys.stderr.isatty())
+
+
+def cache_key(description: dict, objects: Sequence[TransferObject]) -> str:
+    """Hex SHA-256 of a transfer's settings `description` (JSON, sorted keys) followed by every object's
+    positions, normals and indices (`digest_arrays`: dtype, shape and bytes of each)."""
+    h = hashlib.sha256()
+    h.update(json.dumps(description, sort_keys=True).encode())
+    for o in objects:
+        for a in (o.positions, o.normals, o.indices):
+            digest_arrays(h, np.asarray(a))
+    return h.hexdigest()
+
+
+def entry_checksum(arrays: Sequence[np.ndarray], meta_json: str) -> str:
+    """Hex SHA-256 of a cache entry's arrays (`digest_arrays`, in order) followed by its metadata JSON."""
+    h = hashlib.sha256()
+    for a in arrays:
+        digest_arrays(h, a)
+    h.update(meta_json.encode())
+    return h.hexdigest()
 
 
 # ---------------------------------------------------------------------------------------------- rays

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 import scenes
+from realtime.engine import transfer_rays
 from realtime.techniques.irradiance_map.irradiance_convolution import irradiance_cube_numpy
 from realtime.techniques.wavelet_prt import haar
 from realtime.techniques.wavelet_prt import wavelet_transfer as wt
@@ -291,7 +292,7 @@ def test_corrupt_cache_entry_is_recomputed_with_a_warning(tmp_path, monkeypatch,
             lo, hi = entry["o0"][0], entry["o0"][1]
             entry["i0"][lo:hi] = entry["i0"][lo:hi][::-1].copy()
             arrays = [entry[f"{n}{i}"] for i in range(len(objects)) for n in ("o", "i", "v")]
-            entry["checksum"] = np.array(wt._checksum(arrays, str(entry["meta"])))
+            entry["checksum"] = np.array(transfer_rays.entry_checksum(arrays, str(entry["meta"])))
         with open(path, "wb") as f:
             np.savez(f, **entry)
     with pytest.warns(CacheWarning, match="corrupt"):

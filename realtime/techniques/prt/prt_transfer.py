@@ -69,7 +69,6 @@ unwritable folder is a CacheWarning and the transfer is returned uncached.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 import warnings
@@ -82,6 +81,8 @@ from realtime.engine.transfer_rays import (
     CheckedObject,
     FrontGather,
     TransferObject,
+    cache_key,
+    check_bounces,
     check_object,
     epsilon,
     hemisphere_hits,
@@ -90,8 +91,9 @@ from realtime.engine.transfer_rays import (
     merge,
     progress_bar,
 )
+from realtime.engine.transfer_rays import entry_checksum as _entry_checksum  # tests re-sign entries by this name
 from scenes.environment.shbasis import COSINE_BAND_FACTORS, band_of, count, sh_basis
-from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, write_npz
+from scenes.storage.disk_cache import CacheWarning, cache_dir, write_npz
 
 #: bump when the transfer computed for the same inputs changes (invalidates the cache)
 TRANSFER_VERSION = 1
@@ -109,11 +111,7 @@ def _check_settings(order: int, rays: int, bounces: int, shadowed: bool) -> None
                          f"{MAX_ORDER}), got {order}")
     if shadowed and rays < 1:
         raise ValueError(f"PRT rays must be >= 1, got {rays}")
-    if bounces < 0:
-        raise ValueError(f"PRT bounces must be >= 0, got {bounces}")
-    if bounces and not shadowed:
-        raise ValueError(f"PRT bounces = {bounces} needs shadowed transfer (interreflection gathers over the "
-                         "visibility rays)")
+    check_bounces("PRT", bounces, shadowed)
 
 
 def _chunk_vertices(order: int, rays: int) -> int:
@@ -236,23 +234,10 @@ def transfer(objects: Sequence[TransferObject], order: int, rays: int, bounces: 
 def transfer_key(objects: Sequence[TransferObject], order: int, rays: int, bounces: int, shadowed: bool,
                  seed: int = 0) -> str:
     """Hex SHA-256 over everything that changes the transfer (module docstring)."""
-    h = hashlib.sha256()
     desc = {"kind": "prt", "version": TRANSFER_VERSION, "order": int(order), "rays": int(rays),
             "bounces": int(bounces), "shadowed": bool(shadowed), "seed": int(seed),
             "objects": [{"kd": [float(c) for c in o.kd], "two_sided": bool(o.two_sided)} for o in objects]}
-    h.update(json.dumps(desc, sort_keys=True).encode())
-    for o in objects:
-        for a in (o.positions, o.normals, o.indices):
-            digest_arrays(h, np.asarray(a))
-    return h.hexdigest()
-
-
-def _entry_checksum(arrays: list[np.ndarray], meta_json: str) -> str:
-    h = hashlib.sha256()
-    for a in arrays:
-        digest_arrays(h, a)
-    h.update(meta_json.encode())
-    return h.hexdigest()
+    return cache_key(desc, objects)
 
 
 def entry_problem(meta: object, vertices: int, rays_traced: int) -> str | None:

@@ -40,7 +40,6 @@ CacheWarning, an unwritable folder warns.
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
 import warnings
@@ -53,7 +52,7 @@ from realtime.engine import transfer_rays
 from realtime.engine.transfer_rays import TransferObject, memory_limit
 from realtime.techniques.wavelet_prt import haar
 from scenes.environment import cubemap
-from scenes.storage.disk_cache import CacheWarning, cache_dir, digest_arrays, write_npz
+from scenes.storage.disk_cache import CacheWarning, cache_dir, write_npz
 
 #: bump when the transfer computed for the same inputs changes (invalidates the cache)
 TRANSFER_VERSION = 1
@@ -121,11 +120,7 @@ def _check_settings(cube_size: int, threshold: float, rays_: int, bounces: int, 
         raise ValueError(f"wavelet PRT cube_size must be a power of two, got {cube_size}")
     if not (np.isfinite(threshold) and threshold >= 0):
         raise ValueError(f"wavelet PRT threshold must be a finite number >= 0, got {threshold}")
-    if bounces < 0:
-        raise ValueError(f"wavelet PRT bounces must be >= 0, got {bounces}")
-    if bounces and not shadowed:
-        raise ValueError(f"wavelet PRT bounces = {bounces} needs shadowed transfer (interreflection gathers over "
-                         "the visibility rays)")
+    transfer_rays.check_bounces("wavelet PRT", bounces, shadowed)
     if bounces and rays_ < 1:
         raise ValueError(f"wavelet PRT rays must be >= 1, got {rays_}")
 
@@ -273,24 +268,11 @@ def transfer(objects: Sequence[TransferObject], cube_size: int, threshold: float
 def transfer_key(objects: Sequence[TransferObject], cube_size: int, threshold: float, rays_: int, bounces: int,
                  shadowed: bool, seed: int = 0) -> str:
     """Hex SHA-256 over everything that changes the transfer (module docstring)."""
-    h = hashlib.sha256()
     desc = {"kind": "wavelet_prt", "version": TRANSFER_VERSION, "cube_size": int(cube_size),
             "threshold": float(threshold), "bounces": int(bounces), "shadowed": bool(shadowed)}
     if bounces > 0:  # the albedos, the gather's rays and its seed enter only the bounces
         desc.update(rays=int(rays_), seed=int(seed), kd=[[float(c) for c in o.kd] for o in objects])
-    h.update(json.dumps(desc, sort_keys=True).encode())
-    for o in objects:
-        for a in (o.positions, o.normals, o.indices):
-            digest_arrays(h, np.asarray(a))
-    return h.hexdigest()
-
-
-def _checksum(arrays: list[np.ndarray], meta_json: str) -> str:
-    h = hashlib.sha256()
-    for a in arrays:
-        digest_arrays(h, a)
-    h.update(meta_json.encode())
-    return h.hexdigest()
+    return transfer_rays.cache_key(desc, objects)
 
 
 def _entry_problem(t: SparseTransfer, vertices: int, coefficients: int, channels: int) -> str | None:
@@ -322,7 +304,7 @@ def _load(path, vertices: list[int], coefficients: int, channels: int):
         with np.load(path, allow_pickle=False) as z:
             meta_json, stored = str(z["meta"]), str(z["checksum"])
             arrays = [z[f"{name}{i}"] for i in range(len(vertices)) for name in ("o", "i", "v")]
-        if _checksum(arrays, meta_json) != stored:
+        if transfer_rays.entry_checksum(arrays, meta_json) != stored:
             raise ValueError("checksum mismatch")
         meta = json.loads(meta_json)
         if not isinstance(meta, dict) or meta.get("version") != TRANSFER_VERSION:
@@ -352,8 +334,8 @@ def _store(folder, key: str, transfers: list[SparseTransfer], meta: dict) -> Non
               for name, a in (("o", t.offsets), ("i", t.indices), ("v", t.values))}
     meta_json = json.dumps(meta, sort_keys=True)
     try:
-        write_npz(folder, key, meta=np.array(meta_json), checksum=np.array(_checksum(list(arrays.values()),
-                                                                                      meta_json)), **arrays)
+        checksum = transfer_rays.entry_checksum(list(arrays.values()), meta_json)
+        write_npz(folder, key, meta=np.array(meta_json), checksum=np.array(checksum), **arrays)
     except OSError as exc:
         warnings.warn(f"wavelet PRT cache {folder} cannot be written ({exc.strerror or exc}); the transfer is "
                       "returned but not cached", CacheWarning, stacklevel=3)
