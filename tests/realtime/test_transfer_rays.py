@@ -7,7 +7,7 @@
 - the frames are orthonormal and right-handed with the normal as third axis, at the poles too;
 - any-hit visibility of a unit quad equals the analytic ray / plane test, from either side;
 - the gather's row of a point under a centred square equals the square's point-to-plane form factor
-  (Hottel's formula), lands its hit points on the square's plane, and is zero for a back face;
+  (Howell's catalogue, B-3), lands its hit points on the square's plane, and is zero for a back face;
 - the object checks name the object and what is wrong.
 Each with a negative control: a deliberately wrong variant the same check rejects.
 """
@@ -198,7 +198,7 @@ def test_visibility_of_no_rays_is_empty():
 
 def point_to_square_form_factor(a: float, h: float) -> float:
     """Form factor from a point to a parallel square of half side a centred h above it: four corner
-    rectangles of Hottel's point-to-parallel-rectangle formula (Howell's catalogue, B-3), A = B = a / h:
+    rectangles, each an element to a parallel rectangle over its corner (Howell's catalogue, B-3), A = B = a / h:
     F = 4 / (2 pi) x 2 A / sqrt(1 + A^2) atan(A / sqrt(1 + A^2))."""
     x = (a / h) / math.sqrt(1.0 + (a / h) ** 2)
     return 4.0 / math.pi * x * math.atan(x)
@@ -275,7 +275,8 @@ def good_object() -> tr.TransferObject:
     ("normals", lambda o: np.where(np.arange(15).reshape(5, 3) == 7, np.inf, o.normals), "normals contain NaN"),
     ("normals", lambda o: np.where(np.arange(5)[:, None] == 2, 0.0, o.normals), "1 normals have zero length"),
     ("normals", lambda o: o.normals[:4], r"normals have shape \(4, 3\), positions \(5, 3\)"),
-    ("indices", lambda o: o.indices + 3, r"triangle indices out of range \(0..4\)"),
+    ("indices", lambda o: o.indices + 1, r"triangle indices out of range \(0..4\)"),  # one past the end
+    ("indices", lambda o: o.indices - 2, r"triangle indices out of range \(0..4\)"),  # negative
     ("indices", lambda o: o.indices.astype(np.float64), "indices must be .* integers"),
     ("positions", lambda o: np.zeros((0, 3)), "positions must be"),
     ("kd", lambda o: (0.5, 0.5), "kd must be 3 values"),
