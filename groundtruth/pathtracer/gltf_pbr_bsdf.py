@@ -73,6 +73,7 @@ from __future__ import annotations
 
 import math
 
+from groundtruth.pathtracer.two_lobe_bsdf import make_base
 from scenes.model import materials
 
 PLUGIN_NAME = "iblcheck_gltf_pbr"
@@ -100,9 +101,9 @@ def register(mi) -> None:
 def make_class(mi):
     import drjit as dr  # deferred: Mitsuba's variant (variant.py) is chosen before Dr.Jit loads
 
-    class GltfPbrBSDF(mi.BSDF):
+    class GltfPbrBSDF(make_base(mi, dr)):
         def __init__(self, props):
-            mi.BSDF.__init__(self, props)
+            super().__init__(props)
             rgb = [float(props.get(f"base_color_{c}", 1.0)) for c in "rgb"]
             self.base_rgb = rgb
             self.base_color = mi.Color3f(*rgb)
@@ -118,10 +119,6 @@ def make_class(mi):
             for name, value in checked:
                 if not 0.0 <= value <= 1.0:
                     raise ValueError(f"{PLUGIN_NAME}: {name} = {value} is outside [0, 1]")
-            diffuse = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-            glossy = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-            self.m_components = [diffuse, glossy]
-            self.m_flags = diffuse | glossy
 
         # -- the terms of the specification's Appendix B
         def _lambda_root(self, cos):
@@ -185,15 +182,6 @@ def make_class(mi):
             pdf = p_s * pdf_specular + (1.0 - p_s) * co / math.pi
             return dr.select(above, value, 0.0), dr.select(above, pdf, 0.0)
 
-        def eval(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)[0]
-
-        def pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)[1]
-
-        def eval_pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)
-
         def _sample_visible_normal(self, wi, u):
             """Heitz 2018, listing 1: a normal of D_V(., wi) from u in [0, 1)^2 (wi.z > 0)."""
             a = self.alpha
@@ -213,31 +201,14 @@ def make_class(mi):
             # back to the ellipsoid configuration
             return dr.normalize(mi.Vector3f(a * nh.x, a * nh.y, dr.maximum(nh.z, 1e-30)))
 
-        def sample(self, ctx, si, sample1, sample2, active=True):
+        def _sample_direction(self, ctx, si, sample1, sample2):
             cos_i = mi.Frame3f.cos_theta(si.wi)
             pick_specular = sample1 < self._prob_specular(ctx, cos_i)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
             m = self._sample_visible_normal(si.wi, sample2)
             wo_specular = 2.0 * dr.dot(si.wi, m) * m - si.wi  # the mirror of V about m
             wo = dr.select(pick_specular, wo_specular, wo_diffuse)
-
-            value, pdf = self._eval_pdf(ctx, si, wo, active)
-            bs = dr.zeros(mi.BSDFSample3f)
-            bs.wo = wo
-            bs.pdf = pdf
-            bs.eta = 1.0
-            bs.sampled_type = dr.select(pick_specular, mi.UInt32(+mi.BSDFFlags.GlossyReflection),
-                                        mi.UInt32(+mi.BSDFFlags.DiffuseReflection))
-            bs.sampled_component = dr.select(pick_specular, mi.UInt32(1), mi.UInt32(0))
-            ok = active & (pdf > 0)
-            weight = dr.select(ok, value / dr.maximum(pdf, 1e-30), 0.0)
-            return bs, weight
-
-        def traverse(self, callback):
-            pass
-
-        def parameters_changed(self, keys):
-            pass
+            return wo, pick_specular
 
         def to_string(self):
             return (f"GltfPbrBSDF[base_color={self.base_rgb}, metallic={self.metallic}, "

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 
+from groundtruth.pathtracer.two_lobe_bsdf import make_base
 from scenes.model import materials
 
 PLUGIN_NAME = "iblcheck_paper"
@@ -63,9 +64,9 @@ def register(mi) -> None:
 def make_class(mi):
     import drjit as dr  # deferred: Mitsuba's variant (variant.py) is chosen before Dr.Jit loads
 
-    class PaperBSDF(mi.BSDF):
+    class PaperBSDF(make_base(mi, dr)):
         def __init__(self, props):
-            mi.BSDF.__init__(self, props)
+            super().__init__(props)
             self.code = int(props.get("material", materials.TYPES["blend"].code))
             self.fresnel_kind = {t.code: t.fresnel for t in materials.TYPES.values()}[self.code]
             self.kd = mi.Color3f(props.get("kd_r", 0.8), props.get("kd_g", 0.8), props.get("kd_b", 0.8))
@@ -74,10 +75,6 @@ def make_class(mi):
             self.f0 = float(props.get("f0", 0.04))
             self.kd_mean = sum(props.get(f"kd_{c}", 0.8) for c in "rgb") / 3.0
             self.ks_mean = sum(props.get(f"ks_{c}", 1.0) for c in "rgb") / 3.0
-            diffuse = mi.BSDFFlags.DiffuseReflection | mi.BSDFFlags.FrontSide
-            glossy = mi.BSDFFlags.GlossyReflection | mi.BSDFFlags.FrontSide
-            self.m_components = [diffuse, glossy]
-            self.m_flags = diffuse | glossy
 
         # -- the two lobes' weights (1 - F, F) and the mixture's selection probability
         def _fresnel(self, cos_i):
@@ -121,16 +118,7 @@ def make_class(mi):
             above = active & (cos_o > 0) & (cos_i > 0)  # one-sided: nothing seen from behind the normal
             return dr.select(above, value, 0.0), dr.select(above, pdf, 0.0)
 
-        def eval(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)[0]
-
-        def pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)[1]
-
-        def eval_pdf(self, ctx, si, wo, active=True):
-            return self._eval_pdf(ctx, si, wo, active)
-
-        def sample(self, ctx, si, sample1, sample2, active=True):
+        def _sample_direction(self, ctx, si, sample1, sample2):
             F = self._fresnel(mi.Frame3f.cos_theta(si.wi))
             pick_diffuse = sample1 < self._prob_diffuse(ctx, F)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
@@ -144,24 +132,7 @@ def make_class(mi):
             local = mi.Vector3f(sin_alpha * c, sin_alpha * s, 1.0 - one_minus)
             wo_glossy = mi.Frame3f(self._mirror(si.wi)).to_world(local)
             wo = dr.select(pick_diffuse, wo_diffuse, wo_glossy)
-
-            value, pdf = self._eval_pdf(ctx, si, wo, active)
-            bs = dr.zeros(mi.BSDFSample3f)
-            bs.wo = wo
-            bs.pdf = pdf
-            bs.eta = 1.0
-            bs.sampled_type = dr.select(pick_diffuse, mi.UInt32(+mi.BSDFFlags.DiffuseReflection),
-                                        mi.UInt32(+mi.BSDFFlags.GlossyReflection))
-            bs.sampled_component = dr.select(pick_diffuse, mi.UInt32(0), mi.UInt32(1))
-            ok = active & (pdf > 0)
-            weight = dr.select(ok, value / dr.maximum(pdf, 1e-30), 0.0)
-            return bs, weight
-
-        def traverse(self, callback):
-            pass
-
-        def parameters_changed(self, keys):
-            pass
+            return wo, ~pick_diffuse
 
         def to_string(self):
             return (f"PaperBSDF[material={self.code}, exponent={self.exponent}, f0={self.f0}, "
