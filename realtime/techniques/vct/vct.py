@@ -25,11 +25,12 @@ Every frame (timed `voxelize`, its mips as `mip`):
    mips; the same coverages into the column texture (one channel per axis), max-mipped
    (vct_column_mip.comp): the most covered column of a texel, the cones' finer read;
 3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
-   (1 - F) kd / pi E V + F ks L_g(r) V (E the environment's SH9 irradiance, the scene's own when
+   (1 - F) kd / pi E V_d + F ks L_g(r) V_g (E the environment's SH9 irradiance, the scene's own when
    `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
-   the SH9 radiance convolved with the Phong lobe about the mirror direction r; V the diffuse cones'
-   visibility through the voxels themselves: the direct pass reads every level, the bounce passes mips >= 1, as
-   level 0's radiance is being written). Faced faces carry the full radiance, the others none, each times
+   the environment's chain read about the mirror direction r at the level whose texel covers the Phong
+   lobe; V_d the diffuse cones' visibility through the voxels themselves, V_g that of one cone along r with
+   the lobe's half-angle: the direct pass reads every level, the bounce passes mips >= 1, as level 0's
+   radiance is being written). Faced faces carry the full radiance, the others none, each times
    its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
 
@@ -89,6 +90,8 @@ INJECT_STEP_FACTOR = 1.0
 FACE_UNIT0 = 8
 #: texture unit of the column texture (after the six faces)
 COLUMN_UNIT = FACE_UNIT0 + 6
+#: texture unit of the environment's chain, which the injection reads for the glossy lobe (vct_inject.comp)
+ENV_UNIT = COLUMN_UNIT + 1
 #: image unit the coverage pass writes the column texture through (0..5: the faces)
 COLUMN_IMAGE = 6
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
@@ -164,9 +167,11 @@ class VoxelScene:
     """The scene's voxel cascades on the GPU: voxelised, injected and mipmapped once per frame."""
 
     def __init__(self, ctx: moderngl.Context, objects, resolution: int, cascades: int, diffuse_cones: int,
-                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None) -> None:
+                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None, env_filter=None) -> None:
         """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
-        `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for)."""
+        `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for);
+        `env_filter`: the frame's environment store, whose chain the injection reads for the glossy lobe
+        (None: the SH9 radiance, vct_inject.comp)."""
         self.ctx = ctx
         self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
         lo, hi = scene_bounds(objects)
@@ -198,7 +203,10 @@ class VoxelScene:
         self.mip_levels = self.grid.levels
         here = __package__
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
-        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES, package=here))
+        self.env_filter = env_filter
+        env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
+        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES + env_defines,
+                                                            package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         self.probe_prog = None
@@ -254,6 +262,9 @@ class VoxelScene:
         self.bind_trace(p)
         self.scratch[cascade].bind_to_storage_buffer(1)
         sh_buffer.bind_to_storage_buffer(2)
+        if self.env_filter is not None:
+            self.env_filter.bind_lookup(p, ENV_UNIT)
+            set_uniform(p, "env_base_size", float(self.env_filter.base_size))
         for f, tex in enumerate(self.faces):
             tex.bind_to_image(f, read=False, write=True, level=0)
         if mode == 0:
@@ -442,7 +453,7 @@ def shared_voxels(frame: Frame) -> VoxelScene:
     if "vct" not in frame.shared:
         v = frame.scene.realtime.vct
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
-                                         v.diffuse_cones, v.step, bounces=v.bounces)
+                                         v.diffuse_cones, v.step, bounces=v.bounces, env_filter=frame.env_filter)
     return frame.shared["vct"]
 
 
@@ -454,6 +465,9 @@ class _VctEffect(Technique):
         self.voxels: VoxelScene | None = None
         self.owner = False
         self._split: dict[str, float] = {}
+
+    def chain_level(self, frame: Frame) -> int | None:
+        return None  # the injection reads the glossy lobe's level of the chain
 
     def prepare(self, frame: Frame) -> None:
         self.owner = "vct" not in frame.shared

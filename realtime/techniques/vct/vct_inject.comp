@@ -6,16 +6,15 @@
 // INJECT pass: face f holds the radiance that leaves the voxel toward a_f, i.e. what a viewer looking
 // along -a_f sees of the surface inside it, premultiplied by the coverage along its axis (its alpha):
 // - a face some triangle faces (W_f = sum max(0, n . a_f) > 0): the surface's radiance toward v = a_f,
-//   n_f its weighted mean normal, the paper's reflectance L = (1 - F) kd / pi (E V + E_b)
-//   + F ks (L_g(r) V + E_b / pi), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f). E is the
-//   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the SH9 radiance
-//   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N, whose band factors are
-//   Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3); V the diffuse cones'
-//   visibility through the voxels themselves (the bounce passes: mips >= 1 only, level 0's radiance is being written; the glossy lobe
-//   shares it), E_b what the same cones gather from the previous bounce (inject = 2; under the glossy
-//   lobe taken as uniform: a lobe of albedo ks under radiance E_b / pi reflects ks E_b / pi). A viewer
-//   along -a_f looking at a plane crossing the voxel hits its front whenever a_f . n > 0, so the face
-//   carries the full radiance (not a fraction n . a_f);
+//   n_f its weighted mean normal, the paper's reflectance L = (1 - F) kd / pi (E V_d + E_b)
+//   + F ks (L_g(r) V_g + L_b), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f). E is the
+//   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the environment
+//   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N (glossy_env below). The diffuse term's V_d
+//   is the diffuse cones' visibility through the voxels themselves and E_b what they gather from the
+//   previous bounce (inject = 2); the glossy term's V_g and L_b are those of one cone along r with the
+//   lobe's own half-angle (glossy_lobe below). The bounce passes read mips >= 1 only: level 0's radiance
+//   is being written. A viewer along -a_f looking at a plane crossing the voxel hits its front whenever
+//   a_f . n > 0, so the face carries the full radiance (not a fraction n . a_f);
 // - any other face: black. A face no triangle faces whose opposite face none faces either has a_f in
 //   the surfaces' plane (n_a = 0 for all of them), so its coverage is 0 and it holds nothing: a cone
 //   reads rgb / alpha over the faces weighted by d_a^2, so a plane of radiance L with normal +y reads L
@@ -53,9 +52,37 @@ void put(int f, ivec3 q, vec4 value) {
 
 const float PI = 3.14159265358979323846;
 
-// SH9 radiance of the environment convolved with the normalised Phong lobe of exponent N, at direction r
-// (scenes/environment/shbasis.py's basis and order)
-vec3 glossy_sh(vec3 r, float N) {
+// L_g(r): the environment convolved with the normalised Phong lobe of exponent N about r.
+// VCT_GLOSSY_ENV (the frame's injection): the environment's 2x2-box mip chain (the cube, or a 2D
+// parameterization through env_map.glsl) read at the level whose texel covers the lobe's solid angle
+// (McGuire et al. 2013, realtime.engine.levels.mcguire_offset): the lobe's normalisation (N + 1) / (2 pi)
+// makes it worth 2 pi / (N + 1) sr, a cube texel at level l covers about 4 pi / (6 (base / 2^l)^2), so
+// l = log2(base sqrt(3)) - 0.5 log2(N + 1). SH9 cannot stand in for a narrow lobe: its order-2 projection
+// spreads a bright window over the whole sphere (a Phong torus (N = 50) under the Ennis probe, its second
+// bounce traced in numpy: twice the radiance of the same bounce under the environment itself).
+// Otherwise (a voxel scene made without the frame's environment store: tests) the SH9 radiance convolved
+// with the lobe, band factors Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3)
+// (scenes/environment/shbasis.py's basis and order).
+#ifdef VCT_GLOSSY_ENV
+uniform float env_base_size;  // the cube's level-0 face size (a 2D store's cube-equivalent budget)
+#if defined(ENV_DUAL_PARABOLOID) || defined(ENV_SPHERE_MAP)
+#include "env_map.glsl"
+// the host's LOD unclamped: env_map.glsl turns it into its own level of equal solid angle and clamps that
+vec3 env_lookup(vec3 r, float lod) {
+    return env_map_radiance(r, lod);
+}
+#else
+uniform samplerCube env_cube;
+vec3 env_lookup(vec3 r, float lod) {
+    return textureLod(env_cube, r, clamp(lod, 0.0, log2(env_base_size))).rgb;
+}
+#endif
+
+vec3 glossy_env(vec3 r, float N) {
+    return max(env_lookup(r, log2(env_base_size * sqrt(3.0)) - 0.5 * log2(N + 1.0)), vec3(0.0));
+}
+#else
+vec3 glossy_env(vec3 r, float N) {
     float l1 = (N + 1.0) / (N + 2.0), l2 = N / (N + 3.0);
     float x = r.x, y = r.y, z = r.z;
     float Y[9] = float[9](0.282095, 0.488603 * l1 * y, 0.488603 * l1 * z, 0.488603 * l1 * x,
@@ -64,6 +91,33 @@ vec3 glossy_sh(vec3 r, float N) {
     vec3 L = vec3(0.0);
     for (int k = 0; k < 9; ++k) L += Y[k] * coeffs[k].rgb;
     return max(L, vec3(0.0));
+}
+#endif
+
+// tan of the glossy cone's half-angle for Phong exponent N, as vct_math.glossy_half_angle: the cone's solid
+// angle 2 pi (1 - cos a) is the lobe's 2 pi / (N + 1), so cos a = N / (N + 1), a clamped to
+// [GLOSSY_MIN_DEG, GLOSSY_MAX_DEG] (vct_math.GLOSSY_HALF_ANGLE_RANGE)
+const float GLOSSY_MIN_DEG = 1.0;
+const float GLOSSY_MAX_DEG = 30.0;
+float glossy_tan(float N) {
+    float a = acos(clamp(N / (N + 1.0), 0.0, 1.0));
+    return tan(clamp(a, radians(GLOSSY_MIN_DEG), radians(GLOSSY_MAX_DEG)));
+}
+
+// The glossy lobe's light at x (normal n) toward v, mirror direction r: (V_g L_g(r) + L_b, before F ks).
+// The lobe reflects int P(l) L_in(l) dl, P the normalised Phong lobe about r and L_in the environment's
+// radiance L_env where the voxels leave direction l open (vis(l) = 1), theirs, L_vox, where they block it:
+// int P vis L_env + int P (1 - vis) L_vox. Taking L_env under the lobe as uncorrelated with vis, the first
+// term is L_g(r) V_g, V_g = int P vis the lobe's unblocked share; a cone along r with the lobe's
+// half-angle estimates V_g as 1 - its opacity and the second term as its gathered radiance L_b (the rule
+// the shading pass applies to the glossy lobe, vct.glsl). The diffuse cones' cosine-weighted visibility
+// is the wrong share for the lobe: where r points at a nearby surface (a torus's inner wall looking
+// across the hole) the hemisphere is about half open, and V_d passed half of L_g(r) that the surface
+// cannot reflect.
+vec3 glossy_lobe(vec3 x, vec3 n, vec3 r, float N) {
+    float h = vct_local_voxel(x);
+    vec4 s = vct_cone(x + vct_normal_voxels * h * n, r, glossy_tan(N), vct_start_voxels * h, lod_min, x, n);
+    return glossy_env(r, N) * (1.0 - s.a) + (inject == 2 ? s.rgb : vec3(0.0));
 }
 
 // The voxel's opacity along each axis: the fraction of the voxel's cross-section its surface covers seen
@@ -107,10 +161,15 @@ void main() {
     float he = vct_half_extent * exp2(float(cascade));
     float h = 2.0 * he / float(R);
     vec3 x = vct_centre - vec3(he) + (vec3(g) + 0.5) * h;
+    // a term's cones are traced only where the material has that term: the diffuse cones where kd > 0 and
+    // F < 1 somewhere (f0 < 1), the glossy cone where ks > 0 and F > 0 somewhere (f0 > 0 or Schlick's)
+    bool diffuse = any(greaterThan(kd, vec3(0.0))) && f0 < 1.0;
+    bool glossy = any(greaterThan(ks, vec3(0.0))) && (f0 > 0.0 || schlick > 0.0);
     // faces whose mean normals agree (a flat surface: up to three faces share one normal) share one set
-    // of cones: at most six sets, usually one, two for a thin wall's two sides
+    // of diffuse cones: at most six sets, usually one, two for a thin wall's two sides; the glossy cone
+    // is one per face (its mirror direction is the face's own)
     vec3 done_n[6];
-    vec4 done_E[6];  // (environment irradiance x V + bounce, V)
+    vec4 done_E[6];  // (environment irradiance x V_d + bounce, V_d)
     int done = 0;
     vec3 L[6];
     bool faced[6];
@@ -121,25 +180,24 @@ void main() {
         L[f] = vec3(0.0);
         if (!faced[f]) continue;
         vec3 n = normalize(ns);
-        int k = 0;
-        for (; k < done; ++k)
-            if (dot(done_n[k], n) > SAME_NORMAL_COS) break;
-        vec4 gathered;
-        if (k == done) {
-            gathered = vct_diffuse(x, n, lod_min);
-            done_n[done] = n;
-            done_E[done] = vec4(gathered.rgb, gathered.a);
-            ++done;
-        }
-        gathered = done_E[k];
-        vec3 Eb = inject == 2 ? gathered.rgb : vec3(0.0);
-        float V = gathered.a;
         vec3 a = vec3(0.0);
         a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
         float c = max(dot(n, a), 0.0);
         float F = f0 + schlick * (1.0 - f0) * pow(1.0 - c, 5.0);
-        vec3 r = reflect(-a, n);
-        L[f] = (1.0 - F) * kd / PI * (irradiance(n) * V + Eb) + F * ks * (glossy_sh(r, N) * V + Eb / PI);
+        if (diffuse) {
+            int k = 0;
+            for (; k < done; ++k)
+                if (dot(done_n[k], n) > SAME_NORMAL_COS) break;
+            if (k == done) {
+                vec4 gathered = vct_diffuse(x, n, lod_min);
+                done_n[done] = n;
+                done_E[done] = vec4(irradiance(n) * gathered.a + (inject == 2 ? gathered.rgb : vec3(0.0)),
+                                    gathered.a);
+                ++done;
+            }
+            L[f] += (1.0 - F) * kd / PI * done_E[k].rgb;
+        }
+        if (glossy) L[f] += F * ks * glossy_lobe(x, n, reflect(-a, n), N);
     }
     for (int f = 0; f < 6; ++f) {
         // premultiplied: the radiance of what covers the face's axis, times that coverage
