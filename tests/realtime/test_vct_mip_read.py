@@ -7,9 +7,10 @@ vct_trace.glsl's vct_front), against expectations found independently:
   black and opaque; a half-empty block keeps the plain average (hand-computed values);
 - inside a bowl whose every lit face shows radiance L, a cone whose every direction meets the inside (the
   exact occlusion, ray-cast against the sphere here) gathers L times its opacity, at 32^3, 64^3, 128^3;
-- with the bowl's outer wall at 2 L, the same cones still read L (not the wall's other side).
+- with the bowl's outer wall at 2 L, the same cones still read L (not the wall's other side);
+- two fronts of different radiance (no back on either axis) keep their d_a^2 weights (hand-computed).
 Each check has a negative control: the mip's plain average, the binary front rule, the brightest face as
-the radiance's reference: the same check rejects each.
+the radiance's reference, the dimmer of two fronts discounted: the same check rejects each.
 """
 
 from __future__ import annotations
@@ -75,7 +76,8 @@ def block_faces(res: int, L: float) -> np.ndarray:
     """Level 0 (6, 1, res, res, res, 4): four 2x2x2 blocks along x, each of two columns pairs along x per
     (y, z). Block 0: columns y = 0 a front toward +X (its +X face lit L, -X black), y = 1 a surface facing -X
     (+X black, -X lit): from +X two fronts and two backs. Block 1: a thin wall's dark side toward +X (every
-    column +X black, -X lit). Block 2: dark both ways. Block 3: columns y = 0 lit toward +X, y = 1 empty."""
+    column +X black, -X lit). Block 2: dark both ways. Block 3: columns y = 0 lit toward +X, y = 1 empty.
+    Block 4 (y = 2, 3): a back behind a dark surface, below."""
     f = np.zeros((6, 1, res, res, res, 4), "f4")
     lit, black = [L, L, L, 1.0], [0.0, 0.0, 0.0, 1.0]
     f[0, 0, 1, 0, 0:2], f[1, 0, 1, 0, 0:2] = lit, black
@@ -83,6 +85,12 @@ def block_faces(res: int, L: float) -> np.ndarray:
     f[0, 0, 3, 0:2, 0:2], f[1, 0, 3, 0:2, 0:2] = black, lit
     f[0, 0, 5, 0:2, 0:2], f[1, 0, 5, 0:2, 0:2] = black, black
     f[0, 0, 7, 0, 0:2], f[1, 0, 7, 0, 0:2] = lit, black
+    # block 4 (level-1 texel (0, 1, 0)): columns y = 2 a front toward +X; columns y = 3 a surface facing -X
+    # (x = 1) behind a surface dark both ways (x = 0): from -X the dark one hides the lit one, so from +X the
+    # column is black both ways (a dark surface), not a back
+    f[0, 0, 1, 2, 0:2], f[1, 0, 1, 2, 0:2] = lit, black
+    f[0, 0, 0, 3, 0:2], f[1, 0, 0, 3, 0:2] = black, black
+    f[0, 0, 1, 3, 0:2], f[1, 0, 1, 3, 0:2] = black, lit
     return f
 
 
@@ -95,7 +103,10 @@ BLOCK_EXPECTED = {
     (1, 1): (1.0, 1.0),  # its lit side
     (2, 0): (0.0, 1.0),  # dark both ways: black and opaque
     (3, 0): (0.5, 0.5),  # half empty, no back: the plain mean
+    (4, 0): (0.5, 1.0),  # two fronts, two columns dark both ways (the opposite pair composited front to back)
 }
+# (block, face) -> the level-1 texel's (x, y, z)
+BLOCK_TEXEL = {0: (0, 0, 0), 1: (1, 0, 0), 2: (2, 0, 0), 3: (3, 0, 0), 4: (0, 1, 0)}
 
 
 def blank_voxels(ctx, res: int):
@@ -114,7 +125,8 @@ def test_mip_normalises_radiance_by_the_opacity_of_its_fronts(ctx, control):
     vs.build_mips()
     level1 = vs.read_faces(1)[:, 0]
     vs.release()
-    got = {(block, face): (float(level1[face, block, 0, 0, :3].mean()) / L, float(level1[face, block, 0, 0, 3]))
+    got = {(block, face): (float(level1[(face, *BLOCK_TEXEL[block])][:3].mean()) / L,
+                           float(level1[(face, *BLOCK_TEXEL[block])][3]))
            for block, face in BLOCK_EXPECTED}
     ok = all(got[k] == pytest.approx(v, abs=2e-3) for k, v in BLOCK_EXPECTED.items())
     assert ok == (control is None), got
@@ -214,3 +226,35 @@ def test_cone_inside_the_bowl_does_not_read_its_brighter_outer_wall(ctx, res, co
     r = blocked_cones(vs)
     vs.release()
     assert reads_the_wall(r) == (control is None), r
+
+
+@pytest.mark.parametrize("control", [None, "corner_discounted"])
+def test_two_fronts_of_different_radiance_keep_their_weights(ctx, control):
+    """A half-space x < 0 of voxels whose +X faces show L and +Y faces L / 2 (both opaque), their -X and -Y
+    faces black (nothing faces that way: no back of a lit surface on either axis). A cone along
+    d = (-1, -0.6, 0) / |.| reads the faces against it, weighted d_a^2 (vct_read): (0.735 L + 0.265 L / 2) /
+    (0.735 + 0.265) = 0.868 L times its opacity. Control: discounting the dimmer face by its radiance per
+    opacity over the dominant one's there too reads L."""
+    res, L = 32, 0.8
+    vs = blank_voxels(ctx, res)
+    if control == "corner_discounted":
+        src = shader_source("vct_cone.comp", package=PACKAGE)
+        old = "    if (b <= 0.0) return 1.0;\n"
+        if old not in src:
+            raise AssertionError(f"control {control}: {old!r} is no longer in vct_cone.comp")
+        vs.cone_prog = ctx.compute_shader(src.replace(old, ""))
+    f = np.zeros((6, 1, res, res, res, 4), "f4")
+    half = slice(0, res // 2)
+    f[0, 0, half], f[1, 0, half] = [L, L, L, 1.0], [0.0, 0.0, 0.0, 1.0]
+    f[2, 0, half], f[3, 0, half] = [L / 2, L / 2, L / 2, 1.0], [0.0, 0.0, 0.0, 1.0]
+    vs.write_level0(f)
+    vs.build_mips()
+    d = np.array([-1.0, -0.6, 0.0]) / math.sqrt(1.36)
+    n = np.array([1.0, 0.0, 0.0])
+    h = vs.grid.voxel_size
+    r = vs.trace_cone(np.array([[0.3, 0.013, 0.013]]), d[None], np.array([0.1]), np.array([h]),
+                      np.array([[0.3 - 2.0 * h, 0.013, 0.013]]), n[None])[0]
+    vs.release()
+    want = (1.0 + 0.36 * 0.5) / 1.36 * L
+    assert r[3] > 0.99, r
+    assert (r[:3].mean() / r[3] == pytest.approx(want, rel=0.01)) == (control is None), r
