@@ -288,6 +288,7 @@ class VoxelScene:
             for f, tex in enumerate(self.faces):
                 tex.bind_to_image(0, read=True, write=False, level=level - 1)
                 tex.bind_to_image(1, read=False, write=True, level=level)
+                self.faces[f ^ 1].bind_to_image(2, read=True, write=False, level=level - 1)  # the opposite face
                 p["axis"] = f // 2
                 p["sign_"] = 1 if f % 2 == 0 else -1
                 p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))

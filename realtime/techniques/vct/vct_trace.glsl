@@ -60,27 +60,45 @@ vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
     return f > 0.0 ? mix(a, vct_texel(tex, local, c, l1), f) : a;
 }
 
-// Whether an axis's face read against the cone can carry light toward it (1) or is the back of a surface
-// that faces along the cone on that axis (0). A surface of normal n seen by a cone along d with n.d < 0 shows
-// its front, but the cone reads it axis by axis, and on an axis with n_a d_a > 0 the face against d is that
-// surface's back: black (the injection lights a face only where the surface faces it), yet opaque by its
-// coverage. Counted in the radiance's normalisation (rgb / alpha) it darkens a lit curved surface: inside
-// a bowl whose walls all show L, the cones gathered 0.72 to 0.99 of pi L (1 - V) and less as the
-// resolution grew (the bowl's indirect light 0.90 / 0.80 / 0.76 of the path tracer's at 32 / 64 / 128).
-// Such a face is black while the face the other way, in the same texel, is lit: it then counts in the
-// opacity only. Only the normalisation changes, never the numerator: the faces pointing along d add no
-// light (a thin wall's dark side stays black), and a face dark on both sides counts as front (a dark
-// surface is opaque and black).
-float vct_front(vec3 against, vec3 along) {
+// The share of an axis's face read against the cone that can carry light toward it. A surface of normal n
+// seen by a cone along d with n.d < 0 shows its front, but the cone reads it axis by axis, and on an axis
+// with n_a d_a > 0 the face against d is that surface's back: black (the injection lights a face only where
+// the surface faces it), yet opaque by its coverage. Counted in the radiance's normalisation (rgb / alpha) it
+// darkens a lit curved surface: inside a bowl whose walls all show L, the cones gathered 0.72 to 0.99 of
+// pi L (1 - V) and less as the resolution grew. Such a face is black while the face the other way, in the
+// same texel, is lit: it then counts in the opacity only (share 0). A coarse texel of a curved surface holds
+// both: on an axis where the surface turns within the texel (n_a changes sign), the face against d is lit
+// where n_a d_a < 0 and black where n_a d_a > 0, and the face along d the other way round, so both are lit
+// and the face against d shows L only on the share of its opacity that faces the cone: its radiance per
+// opacity rho_a = rgb_a / alpha_a is L times that share (a bowl's down-the-wall cone at 128^3 read a
+// level-3 z face of 0.0004 / 0.10 against 0.021 along, its x and y faces 0.21 per opacity: counted whole, the
+// z face brought the sample's radiance to 0.162 of the wall's 0.208). That share
+// is estimated as rho_a / rho_ref (at most 1), rho_ref the rho of the face read against d of the largest
+// weighted opacity d_a^2 alpha_a (the dominant one), on an axis whose face along d is lit (mixed); 1 where it
+// is black (no back of a lit surface on this axis: two walls of different radiance meeting in a corner keep
+// their own weights). Not the brightest face's rho: a coarse texel holding both sides of a thin wall often
+// has the far side's light on one axis, which the cone cannot see (inside a bowl whose outer wall shows 2 L,
+// the brightest as reference read up to 1.66 L at 64^3, the dominant 1.03 L). Only the
+// normalisation changes, never the numerator: the faces pointing along d add no light (a thin wall's dark
+// side stays black), and a face dark on both sides counts whole (a dark surface is opaque and black).
+float vct_front(vec4 against, vec3 along, float rho_ref) {
     float a = max(against.r, max(against.g, against.b));
     float b = max(along.r, max(along.g, along.b));
-    return b > 0.0 && a <= VCT_BACK_RATIO * b ? 0.0 : 1.0;
+    if (b <= 0.0) return 1.0;
+    if (a <= VCT_BACK_RATIO * b) return 0.0;
+    float rho = a / max(against.a, 1e-6);
+    return rho_ref > 0.0 ? clamp(rho / rho_ref, 0.0, 1.0) : 1.0;
+}
+
+// the radiance per opacity of a face read (its brightest channel; 0 where transparent)
+float vct_rho(vec4 f) {
+    return f.a > 1e-6 ? max(f.r, max(f.g, f.b)) / f.a : 0.0;
 }
 
 // What a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing against d.
 // Returns (sum_a d_a^2 rgb_a, sum_a d_a^2 alpha_a) and, in `alphas`, each axis's face opacity alpha_a:
 // the step's transmittance combines these in the optical-depth domain (vct_cone). `front` is the part of
-// the weighted opacity that can carry light toward the cone (vct_front_weight).
+// the weighted opacity that can carry light toward the cone (vct_front).
 vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front) {
     float he = vct_half_extent * exp2(float(c));
     vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
@@ -93,8 +111,11 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 oy = (d.y > 0.0 ? vct_fetch(vct_face_py, local, c, mip) : vct_fetch(vct_face_ny, local, c, mip)).rgb;
     vec3 oz = (d.z > 0.0 ? vct_fetch(vct_face_pz, local, c, mip) : vct_fetch(vct_face_nz, local, c, mip)).rgb;
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0);
-    front = w.x * alphas.x * vct_front(x.rgb, ox) + w.y * alphas.y * vct_front(y.rgb, oy)
-          + w.z * alphas.z * vct_front(z.rgb, oz);
+    // the dominant face's rho: the one of the largest weighted opacity w_a alpha_a
+    vec3 wa = w * alphas;
+    float rho_ref = wa.x >= wa.y && wa.x >= wa.z ? vct_rho(x) : (wa.y >= wa.z ? vct_rho(y) : vct_rho(z));
+    front = w.x * alphas.x * vct_front(x, ox, rho_ref) + w.y * alphas.y * vct_front(y, oy, rho_ref)
+          + w.z * alphas.z * vct_front(z, oz, rho_ref);
     return w.x * x + w.y * y + w.z * z;
 }
 
