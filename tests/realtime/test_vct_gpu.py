@@ -115,6 +115,10 @@ def test_gpu_anisotropic_mip_matches_the_six_face_scheme(ctx):
     faces[:, 0, 1::2, :, :] = [0.25, 0.5, 0.125, 1.0]  # every odd x: the +X half of each 2x2x2 block
     faces[1, 0, 1::2, :, :] = [0.0, 0.75, 0.0, 1.0]  # the filled half emits green toward -X
     faces[:, 0, 0:2, 0:2, 0:2] = [0.0, 0.0, 0.5, 0.5]  # one block: half-transparent blue in front
+    # one block whose y = 1 columns are a surface's back seen from +X (black there, lit toward -X)
+    faces[:, 0, 6:8, 6:8, 6:8] = [0.0, 0.0, 0.0, 1.0]
+    faces[0, 0, 6:8, 6, 6:8] = [0.4, 0.2, 0.1, 1.0]
+    faces[1, 0, 6:8, 7, 6:8] = [0.1, 0.6, 0.3, 1.0]
     vs.write_level0(faces)
     vs.build_mips()
     gpu = vs.read_faces(1)[:, 0]
@@ -124,6 +128,9 @@ def test_gpu_anisotropic_mip_matches_the_six_face_scheme(ctx):
     assert block[0, 3] == pytest.approx(1.0) and block[1, 3] == pytest.approx(1.0)
     assert all(block[f, 3] == pytest.approx(0.5) for f in (2, 3, 4, 5))
     assert not np.allclose(block[0, :3], block[1, :3])  # +X and -X read differently
+    # the block with back columns: from +X its lit front columns' radiance, not half of it (the plain mean)
+    assert np.allclose(gpu[0, 3, 3, 3], [0.4, 0.2, 0.1, 1.0], atol=2e-3)
+    assert np.allclose(gpu[1, 3, 3, 3], [0.1, 0.6, 0.3, 1.0], atol=2e-3)
     vs.release()
 
 

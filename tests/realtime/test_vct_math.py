@@ -203,6 +203,28 @@ def test_front_to_back_inside_the_mip():
     assert np.allclose(m[1], [1.0, 0.0, 0.0, 1.0])  # from -X: the opaque red hides the blue
 
 
+def test_mip_radiance_leaves_out_a_surfaces_back_columns():
+    # a 2x2x2 block, opaque everywhere; seen from +X two of its four columns (y = 0) show a lit front (grey 0.5),
+    # the other two (y = 1) a surface's back: black toward +X, lit toward -X (the injection lights a face only
+    # where its surface faces it). The texel blocks the whole column (alpha 1) and a cone from +X can reach the
+    # back columns only through the front ones, so it reads the fronts' radiance: rgb / alpha = 0.5 on +X.
+    faces = np.zeros((6, 2, 2, 2, 4))
+    faces[:, :, :, :, 3] = 1.0
+    faces[0, :, 0, :, :3] = 0.5  # +X faces of the y = 0 columns: lit
+    faces[1, :, 1, :, :3] = 0.8  # -X faces of the y = 1 columns: lit the other way (their +X faces: backs)
+    m = vct_math.anisotropic_mip(faces)[:, 0, 0, 0]
+    assert m[0, 3] == pytest.approx(1.0)
+    assert m[0, :3] == pytest.approx([0.5] * 3)
+    # seen from -X the lit y = 1 columns are fronts and the y = 0 columns black there are backs (lit toward +X)
+    assert m[1, :3] == pytest.approx([0.8] * 3)
+    # negative control: the plain mean of the four pairs, the rule before, reads half of it
+    plain = 0.25 * faces[0, 1].sum(axis=(0, 1))
+    assert plain[0] == pytest.approx(0.25) and plain[0] != pytest.approx(m[0, 0])
+    # a black column whose opposite face is black too is a dark surface, not a back: it stays in the mean
+    faces[1, :, 1, :, :3] = 0.0
+    assert vct_math.anisotropic_mip(faces)[0, 0, 0, 0, 0] == pytest.approx(0.25)
+
+
 def test_cap_visibility_and_surface_bound():
     assert vct_math.cap_visibility(0.5, 1.0) == pytest.approx(0.75)
     assert vct_math.surface_voxel_bound(1.0, 0.1) > 4 * math.pi / 0.01

@@ -11,7 +11,8 @@ or the GPU side needs without GL.
   `level_of` is the seed's level selection (the cone's diameter picks the cascade and its mip).
 - `footprint_cap` and `sample_lod`: the level a cone sample reads (vct_trace.glsl's `vct_cone`): the
   cone's diameter, capped where the lookup would reach the voxels of the surface the cone leaves.
-- `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged),
+- `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged, the radiance
+  over the opacity of the pairs that are not a surface's back),
   the reference the GPU's vct_mip.comp is tested against.
 - `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
 """
@@ -198,26 +199,47 @@ def cascades_for(bounds_min: np.ndarray, bounds_max: np.ndarray, resolution: int
     return Cascades(tuple(float(x) for x in centre), outer / 2.0 ** (count - 1), resolution, count)
 
 
+#: a mip pair at most this fraction of the opposite face's pair is a surface's back (vct_mip.comp's MIP_BACK_RATIO)
+MIP_BACK_RATIO = 1e-3
+
+
+def _halves(v: np.ndarray, axis: int) -> tuple[np.ndarray, np.ndarray]:
+    """The even and the odd children of v along `axis`."""
+    return np.take(v, range(0, v.shape[axis], 2), axis=axis), np.take(v, range(1, v.shape[axis], 2), axis=axis)
+
+
 def anisotropic_mip(faces: np.ndarray) -> np.ndarray:
-    """One level of the six-face mip: faces (6, R, R, R, 4) indexed [face, x, y, z, rgba] with rgb
-    premultiplied by alpha -> (6, R/2, R/2, R/2, 4). Face f (what leaves toward axis direction s e_a):
-    along axis a the child nearer the viewer (on the s side) is in front: c = c_front + (1 - a_front)
-    c_back, a likewise; the four such pairs across the other two axes are averaged."""
+    """One level of the six-face mip (vct_mip.comp): faces (6, R, R, R, 4) indexed [face, x, y, z, rgba] with rgb
+    premultiplied by alpha -> (6, R/2, R/2, R/2, 4). Face f (what leaves toward axis direction s e_a): along axis a
+    the child nearer the viewer (on the s side) is in front: pair = c_front + (1 - a_front) c_back, alpha likewise;
+    the texel's alpha is the mean of its four pairs'. Its radiance is normalised by the opacity of the pairs that
+    are not a surface's back, rgb = alpha (sum_p rgb_p) / (sum_p' alpha_p'): a pair is a back where it is black
+    (brightest channel at most MIP_BACK_RATIO of the other's) while the same two children composited the other way,
+    in the opposite face, are lit; where no pair shows a front the plain mean stays (0 for a thin wall's dark
+    side)."""
+    faces = np.asarray(faces, dtype=np.float64)
     out = []
     for f, direction in enumerate(FACES):
-        v = faces[f]
         axis = int(np.flatnonzero(direction)[0])
         sign = direction[axis]
-        lo = np.take(v, range(0, v.shape[axis], 2), axis=axis)
-        hi = np.take(v, range(1, v.shape[axis], 2), axis=axis)
+
+        lo, hi = _halves(faces[f], axis)
         front, back = (hi, lo) if sign > 0 else (lo, hi)
         pair = front + (1.0 - front[..., 3:4]) * back
-        # average over the other two axes
-        others = [a for a in range(3) if a != axis]
-        for a in others:
-            pair = 0.5 * (np.take(pair, range(0, pair.shape[a], 2), axis=a)
-                          + np.take(pair, range(1, pair.shape[a], 2), axis=a))
-        out.append(pair)
+        olo, ohi = _halves(faces[f ^ 1], axis)  # the opposite face: its front is this pair's back child
+        ofront, oback = (olo, ohi) if sign > 0 else (ohi, olo)
+        other = (ofront[..., :3] + (1.0 - ofront[..., 3:4]) * oback[..., :3]).max(-1)
+        is_back = (other > 0.0) & (pair[..., :3].max(-1) <= MIP_BACK_RATIO * other)
+        front_alpha = np.where(is_back, 0.0, pair[..., 3])
+        # sums over the 2x2 pairs across the other two axes
+        for a in (x for x in range(3) if x != axis):
+            pair = sum(_halves(pair, a))
+            front_alpha = sum(_halves(front_alpha, a))
+        texel = 0.25 * pair
+        lit = (front_alpha > 1e-6)[..., None]
+        scale = texel[..., 3:4] / np.where(lit, front_alpha[..., None], 1.0)
+        texel[..., :3] = np.where(lit, pair[..., :3] * scale, texel[..., :3])
+        out.append(texel)
     return np.stack(out)
 
 
