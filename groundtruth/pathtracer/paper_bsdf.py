@@ -120,7 +120,8 @@ def make_class(mi):
 
         def _sample_direction(self, ctx, si, sample1, sample2):
             F = self._fresnel(mi.Frame3f.cos_theta(si.wi))
-            pick_diffuse = sample1 < self._prob_diffuse(ctx, F)
+            # (a comparison, not ~: in a scalar variant the mask is a Python bool, and ~True is -2)
+            pick_glossy = sample1 >= self._prob_diffuse(ctx, F)
             wo_diffuse = mi.warp.square_to_cosine_hemisphere(sample2)
             # lobe about r: 1 - cos(alpha) = -expm1(log(xi) / (N + 1)), phi uniform
             xi = dr.maximum(sample2.x, 1e-30)
@@ -131,8 +132,8 @@ def make_class(mi):
             s, c = dr.sincos(phi)
             local = mi.Vector3f(sin_alpha * c, sin_alpha * s, 1.0 - one_minus)
             wo_glossy = mi.Frame3f(self._mirror(si.wi)).to_world(local)
-            wo = dr.select(pick_diffuse, wo_diffuse, wo_glossy)
-            return wo, ~pick_diffuse
+            wo = dr.select(pick_glossy, wo_glossy, wo_diffuse)
+            return wo, pick_glossy
 
         def to_string(self):
             return (f"PaperBSDF[material={self.code}, exponent={self.exponent}, f0={self.f0}, "

@@ -39,11 +39,12 @@ def test_llvm_version_from_file_names(path, version):
 
 
 @pytest.mark.mitsuba
-def test_scalar_variant_gives_the_same_image_statistics(tmp_path, monkeypatch):
+@pytest.mark.parametrize("spec", ["builtin:sphere-blend", "builtin:pawn-pbr"])  # each BSDF plugin
+def test_scalar_variant_gives_the_same_image_statistics(tmp_path, monkeypatch, spec):
     """IBLCHECK_VARIANT=scalar_rgb (another process): same mean radiance within noise, meta names it."""
     monkeypatch.setenv("IBLCHECK_CACHE", str(tmp_path / "cache"))
-    scene = small("builtin:sphere-blend", size=16, spp=64)
-    code = ("import json, groundtruth, scenes, numpy as np; s = scenes.load('builtin:sphere-blend').with_overrides("
+    scene = small(spec, size=16, spp=64)
+    code = (f"import json, groundtruth, scenes, numpy as np; s = scenes.load('{spec}').with_overrides("
             "{'camera.width': 16, 'camera.height': 16, 'reference.spp': 64}); r = groundtruth.render(s); "
             "print(json.dumps({'variant': r.meta['variant'], 'rgb': r.rgb.tolist(), 'mask': r.mask.tolist()}))")
     env = {**os.environ, "IBLCHECK_VARIANT": "scalar_rgb", "IBLCHECK_CACHE": str(tmp_path / "cache"),
@@ -57,7 +58,11 @@ def test_scalar_variant_gives_the_same_image_statistics(tmp_path, monkeypatch):
     sigma = np.std((a.rgb - b.rgb)[mask]) / np.sqrt(2)
     diff = np.asarray(scalar["rgb"])[mask].mean() - a.rgb[mask].mean()
     assert abs(diff) < 5 * sigma * np.sqrt(2.0 / (mask.sum() * 3)) + 1e-4, (diff, sigma)
-    assert (np.asarray(scalar["mask"]) != a.mask).sum() <= 4
+    # coverage is decided per pixel by the share of its samples that hit (at least half), so silhouette pixels
+    # near half covered flip between independent renders: the scalar variant's mask may differ from this
+    # process's by no more than twice what a second seed of this process's variant does (and 4 pixels)
+    seed_noise = int((a.mask != b.mask).sum())
+    assert (np.asarray(scalar["mask"]) != a.mask).sum() <= max(4, 2 * seed_noise), seed_noise
 
 
 @pytest.mark.mitsuba
