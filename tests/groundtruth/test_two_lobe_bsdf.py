@@ -59,8 +59,7 @@ def test_a_sample_names_the_lobe_that_drew_it(mi, case):
     # the glossy lobe's samples lie at the mirror direction; the diffuse lobe's almost never do
     assert near_mirror[component == 1].mean() > 0.97
     assert near_mirror[component == 0].mean() < 0.01
-    # negative control: the labels swapped would fail the same check
-    assert not near_mirror[component == 0].mean() > 0.97
+    # (a plugin that returns its diffuse pick as the glossy one fails here: tried by mutating paper_bsdf.py)
     # its share of the mixture: binomial, 5 standard errors
     se = math.sqrt(p_glossy * (1 - p_glossy) / N)
     assert abs((component == 1).mean() - p_glossy) < 5 * se + 1e-3, ((component == 1).mean(), p_glossy)

@@ -12,9 +12,10 @@
 // are, such pairs dilute the lit ones: a texel of a curved wall (a bowl's) holds columns that start beside
 // the wall, where it has turned out of the texel, and meet the back of the wall's other side (the solid
 // under a bowl's inner surface) or of the wall itself where its normal's component along a changes sign; a
-// cone can reach those columns only through the lit wall, yet they counted as black and opaque: a cone
-// fully inside a uniformly lit bowl read down to 1.00 / 0.95 / 0.58 of its radiance at 32^3 / 64^3 / 128^3
-// (the coarser the levels it reads, the more such columns), 1.00 / 0.97 / 0.98 with this rule.
+// cone can reach those columns only through the lit wall, yet they counted as black and opaque: the worst
+// cone fully inside a uniformly lit bowl read 1.00 / 0.95 / 0.58 of its radiance at 32^3 / 64^3 / 128^3 (the
+// coarser the levels it reads, the more such columns), 1.00 / 0.97 / 0.98 with this rule (both with the
+// read's share for faces lit both ways, vct_trace.glsl's vct_front; without either, 0.90 / 0.80 / 0.57).
 // Where every pair is a back (a thin wall's dark side) the radiance stays 0, as before; a surface dark on
 // both sides (black pairs both ways) counts as a front, black and opaque.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
