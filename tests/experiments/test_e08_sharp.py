@@ -19,9 +19,7 @@ from experiments.paper import e08_sharp_shadows as sharp
 from experiments.paper.context import Common, Context
 from experiments.paper.e08_overrides import prt_ov, wavelet_ov
 from realtime.engine.technique import describe
-from realtime.techniques.wavelet_prt import declaration as wavelet_declaration
 from scenes.environment import directions
-from scenes.model import technique_registry
 
 # ----------------------------------------------------------------------------- probe concentration
 
@@ -276,35 +274,10 @@ def test_crop_window_refuses_a_window_larger_than_the_map():
 # ----------------------------------------------------------------------------- smoke run
 
 
-class _Dist:
-    name = "iblcheck-wavelet-prt-test"
-
-
-class _WaveletEntryPoint:
-    """wavelet_prt's entry point as a plugin, for an installed metadata older than the package (as a plugin its table
-    enters only the scenes that choose it)."""
-
-    name, dist = "wavelet_prt", _Dist()
-
-    def load(self):
-        return wavelet_declaration.DECLARATIONS
-
-
-@pytest.fixture
-def wavelet_registered(monkeypatch):
-    real = technique_registry._entry_points
-    if not any(ep.name == "wavelet_prt" for ep in real()):
-        monkeypatch.setattr(technique_registry, "_entry_points", lambda: [*real(), _WaveletEntryPoint()])
-    technique_registry.registry.cache_clear()
-    yield
-    monkeypatch.setattr(technique_registry, "_entry_points", real)
-    technique_registry.registry.cache_clear()
-
-
 @pytest.mark.gl
 @pytest.mark.mitsuba
 @pytest.mark.slow
-def test_sharp_section_runs_at_tiny_settings(tmp_path: Path, wavelet_registered):
+def test_sharp_section_runs_at_tiny_settings(tmp_path: Path):
     s = sharp.SharpSettings(scenes=(("sphere-on-plane", "builtin:sphere-on-plane"),), candidates=("ennis",),
                             sh_orders=(2,), sh_rays=16, sh_bounces=0, wavelet_cubes=(8,), wavelet_cubes_other=(8,),
                             wavelet_terms=(16,), wavelet_bounces=1, wavelet_unbounced=(8,),

@@ -264,6 +264,8 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "VCT: the injected glossy lobe about the normal instead of the mirror direction"),
     ("realtime/techniques/vct/vct_inject.comp", "log2(env_base_size * sqrt(3.0)) - 0.5 * log2(N + 1.0)",
      "log2(env_base_size * sqrt(3.0))", "VCT: the injection's chain level ignores the Phong exponent"),
+    ("realtime/techniques/vct/vct_inject.comp", "return textureLod(env_cube, r, clamp",
+     "return textureLod(env_cube, vec3(-r.x, r.yz), clamp", "VCT: the injection's chain looked up with x mirrored"),
     ("realtime/techniques/vct/vct_inject.comp", "&& (f0 > 0.0 || schlick > 0.0);", "&& (f0 > 1.0 || schlick > 0.0);",
      "VCT: a Phong surface's glossy term skipped in the injection"),
     ("realtime/techniques/split_sum/prefilter_ggx.comp", "* n_dot_l;\n        weight += n_dot_l;",

@@ -32,20 +32,22 @@ import pytest
 
 import realtime
 import scenes
+from realtime.engine.context import get_context
+from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
+from realtime.techniques.vct.vct import VoxelScene, scene_bounds
+from scenes.environment.shbasis import sh9
 
 pytestmark = pytest.mark.gl
 
 
 @pytest.fixture(scope="module")
 def ctx():
-    from realtime.engine.context import get_context
 
     return get_context()
 
 
 def sh_of(ctx, scene):
-    from realtime.engine.environment_maps import environment_store
 
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)
@@ -55,7 +57,6 @@ def sh_of(ctx, scene):
 
 
 def voxels(ctx, objects, res, cascades=1, bounces=1, grid=None, env=None):
-    from realtime.techniques.vct.vct import VoxelScene
 
     vs = VoxelScene(ctx, objects, res, cascades, 6, 0.5, bounces=bounces, grid=grid)
     if env is not None:
@@ -291,7 +292,6 @@ AXES = [(a, s) for a in range(3) for s in (1, -1)]
 
 def blank_voxels(ctx, res: int, step: float = 0.5):
     """A VoxelScene over [-1, 1]^3 (one cascade) whose textures the test writes itself."""
-    from realtime.techniques.vct.vct import VoxelScene
 
     plane = scenes.load("builtin:sphere-on-plane").objects[1]
     return VoxelScene(ctx, [plane], res, 1, 6, step, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, res, 1))
@@ -514,7 +514,6 @@ def thin_wall_leak(ctx, objects, res: int, shift: float = 0.0) -> float:
     """The thin-wall scene's leak as E10 measures it: the irradiance the diffuse cones find (environment x
     visibility + gathered) on the ground inside the box over the same outside it, both facing up; the grid
     moved by `shift` times (4.37, 2.9, 4.37) voxels from its own placement (E10's shifted placements)."""
-    from realtime.techniques.vct.vct import scene_bounds
 
     scene = scenes.load("builtin:thin-wall")
     env = sh_of(ctx, scene)
@@ -563,7 +562,6 @@ def test_glossy_plane_injects_its_phong_lobe_toward_each_face(ctx):
     ks times the environment's SH9 radiance convolved with the lobe around the mirror direction (+y), i.e.
     ks sum_lm Lambda_l L_lm Y_lm(+y) with Lambda_l integrated here; its lower face is black. Control: the
     diffuse treatment of the same plane (ks / pi E(+y)) differs from it by more than the tolerance."""
-    from scenes.environment.shbasis import sh9
 
     scene = scenes.load("builtin:sphere-on-plane")
     plane = scene.objects[1]
@@ -708,6 +706,25 @@ def test_layers_cut_an_oblique_cone_alike_at_any_angle(ctx, cos_n):
         assert abs(thick * cos_n * math.log(1.0 - alpha) - want) > tol
 
 
+def thin_cone_through_layer(ctx, x_voxels: slice) -> float:
+    """The transmittance of a thin cone (tan 1e-3) travelling +y along x = z = h0/2 of a 32^3 grid (voxel column
+    16 on x and z) at lod 2, through a one-voxel layer at y voxel 13 of opacity 0.5 along y covering the x voxels
+    `x_voxels` and z voxels 16-17 (nothing else in the grid)."""
+    res = 32
+    vs = blank_voxels(ctx, res)
+    h0 = vs.grid.voxel_size
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    faces[2:4, 0, x_voxels, 13, 16:18, 3] = 0.5
+    vs.write_level0(faces)
+    vs.build_mips()
+    n = np.array([0.0, 1.0, 0.0])
+    origin = np.array([0.5 * h0, (8 - 16 + 0.3) * h0, 0.5 * h0])
+    r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
+                      n[None], lod_min=2.0)[0]
+    vs.release()
+    return float(1.0 - r[3])
+
+
 def test_finer_read_counts_its_texel_once_per_crossing(ctx):
     """A one-voxel layer of opacity 0.5 along y filling only the level-1 texel column around a cone's axis
     (2 x 2 voxels, a quarter of the level-2 texel's columns), crossed along y by a thin cone reading level 2
@@ -717,20 +734,10 @@ def test_finer_read_counts_its_texel_once_per_crossing(ctx):
     lets less through, over at most the 3/4 of it the finer reads leave (they hold at least the layer's
     voxel): T in [0.5 x 0.875^(3/4), 0.5]. Control: the finer read counted per the coarse level's texel
     length (ds / 4 h0 per step) gives 0.5^(1/2) = 0.71 (times at least 0.875^(3/4)), outside that interval."""
-    res = 32
-    vs = blank_voxels(ctx, res)
-    h0 = vs.grid.voxel_size
-    faces = np.zeros((6, 1, res, res, res, 4), "f4")
-    faces[2:4, 0, 16:18, 13, 16:18, 3] = 0.5  # the level-1 texel (8, 6, 8)'s columns, in the level-2 texel (4, 3, 4)
-    vs.write_level0(faces)
-    vs.build_mips()
-    n = np.array([0.0, 1.0, 0.0])
-    origin = np.array([0.5 * h0, (8 - 16 + 0.3) * h0, 0.5 * h0])
-    r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
-                      n[None], lod_min=2.0)[0]
-    vs.release()
+    # the level-1 texel (8, 6, 8)'s columns, in the level-2 texel (4, 3, 4)
+    t = thin_cone_through_layer(ctx, slice(16, 18))
     lo, hi = 0.5 * 0.875 ** 0.75 - 0.005, 0.5 + 0.005
-    assert lo <= 1.0 - r[3] <= hi, r
+    assert lo <= t <= hi, t
     assert math.sqrt(0.5) * 0.875 ** 0.75 > hi
 
 
@@ -740,19 +747,8 @@ def test_finer_read_sees_the_axis_column_not_its_neighbour(ctx):
     (split into level-0 reads, as long as its half of the step each) passes it, and only the level-2 texel,
     2 of its 16 columns at 0.5 (opacity 0.0625), counts: T in [0.9375 - 0.01, 1]. Control: one read of the
     level-1 texel's most covered column gives 0.5, outside that interval."""
-    res = 32
-    vs = blank_voxels(ctx, res)
-    h0 = vs.grid.voxel_size
-    faces = np.zeros((6, 1, res, res, res, 4), "f4")
-    faces[2:4, 0, 17, 13, 16:18, 3] = 0.5
-    vs.write_level0(faces)
-    vs.build_mips()
-    n = np.array([0.0, 1.0, 0.0])
-    origin = np.array([0.5 * h0, (8 - 16 + 0.3) * h0, 0.5 * h0])
-    r = vs.trace_cone(origin[None], n[None], np.array([1e-3]), np.array([0.0]), (origin - 20 * h0 * n)[None],
-                      n[None], lod_min=2.0)[0]
-    vs.release()
-    assert 0.9375 - 0.01 <= 1.0 - r[3] <= 1.0, r
+    t = thin_cone_through_layer(ctx, slice(17, 18))
+    assert 0.9375 - 0.01 <= t <= 1.0, t
     assert 0.5 < 0.9375 - 0.01
 
 

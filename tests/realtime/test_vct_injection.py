@@ -23,7 +23,11 @@ import numpy as np
 import pytest
 
 import scenes
+from realtime.engine.context import get_context
+from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
+from realtime.techniques.vct.vct import INJECT_LOD_MIN, VoxelScene
+from scenes.environment.shbasis import sh9
 
 pytestmark = pytest.mark.gl
 
@@ -39,7 +43,6 @@ FACE_PX, FACE_NX, FACE_PY = 0, 1, 2
 
 @pytest.fixture(scope="module")
 def ctx():
-    from realtime.engine.context import get_context
 
     return get_context()
 
@@ -110,7 +113,6 @@ def cosine_open_share(p: np.ndarray, m: int = 300) -> float:
 
 
 def constant_sky(ctx):
-    from realtime.engine.environment_maps import environment_store
 
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"environment.map": "builtin:constant"})
     env = environment_store(ctx, scene)
@@ -144,7 +146,6 @@ def test_glossy_face_injects_only_the_lobe_share_the_wall_leaves_open(ctx, env_c
     the +x face (r = +y, open) ks L0 times its share (about 1): within 0.05 ks L0 each, in every plane
     voxel 0.2 to 0.4 from the wall. Control: the diffuse cones' rule, ks L0 V_d with V_d the cosine-weighted
     open share (about 0.5), is rejected by the same bound on the +y face."""
-    from realtime.techniques.vct.vct import VoxelScene
 
     env = constant_sky(ctx)
     vs = VoxelScene(ctx, plane_and_wall(KD_WALL), RES, 1, 6, 0.5, bounces=1, grid=GRID,
@@ -177,7 +178,6 @@ def test_glossy_bounce_reflects_the_wall_it_faces(ctx):
     wall reads 20 % high). Control: the diffuse cones' rule ks (L0 V_d + E_b / pi), V_d and E_b the cones'
     visibility and gathered irradiance at the same voxels (VoxelScene.probe at the bounce passes' levels),
     falls outside."""
-    from realtime.techniques.vct.vct import INJECT_LOD_MIN, VoxelScene
 
     env = constant_sky(ctx)
     vs = VoxelScene(ctx, plane_and_wall(KD_WALL), RES, 1, 6, 0.5, bounces=1, grid=GRID, env_filter=env)
@@ -224,9 +224,6 @@ def test_frame_injection_reads_the_lobe_level_of_the_environment_chain(ctx):
     the corner of the +Y face's four central texels, so the trilinear lookup is their mean, read back here
     from the chain; within 1 %. Controls: the same mean at levels 2 and 4, and the SH9 rule (the lobe
     convolved in SH9), differ from it by more than 10 %."""
-    from realtime.engine.environment_maps import environment_store
-    from realtime.techniques.vct.vct import VoxelScene
-    from scenes.environment.shbasis import sh9
 
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({
         "environment.map": "builtin:sky", "environment.params.sun_elevation_deg": 90.0,
@@ -254,6 +251,44 @@ def test_frame_injection_reads_the_lobe_level_of_the_environment_chain(ctx):
     lam = np.repeat([1.0, (CHAIN_EXPONENT + 1) / (CHAIN_EXPONENT + 2), CHAIN_EXPONENT / (CHAIN_EXPONENT + 3)],
                     [1, 3, 5])
     others.append(np.maximum((lam * sh9(np.array([0.0, 1.0, 0.0]))) @ coeffs, 0.0))
+    vs.release()
+    env.release()
+    assert np.abs(got / want - 1.0).max() < 0.01, (got[:3], want)
+    for other in others:
+        assert np.abs(other / want - 1.0).max() > 0.1, (other, want)
+
+
+def test_frame_injection_looks_up_the_world_direction_in_a_turned_environment(ctx):
+    """The chain read's direction convention: a vertical Phong plane facing +x (N = 191) under the calibration
+    map (no turn about +Y maps it onto itself) turned 37 degrees. The store is filled in the world frame, so
+    the +X face (r = +x) must hold ks times the chain's radiance at world +x, level 3: the mean of the four
+    central texels of the store's +X cube face, read back here; within 1 %. Controls: the same means at -X,
+    +Z and -Z (an axis swapped or negated in the lookup, or the turn applied twice or not at all reading
+    another direction) differ from it by more than 10 %."""
+    rotation = 37.0
+    scene = scenes.load("builtin:sphere-on-plane").with_overrides({
+        "environment.map": "builtin:calibration", "environment.rotation_deg": rotation,
+        "realtime.base_size": CHAIN_BASE})
+    env = environment_store(ctx, scene)
+    env.fill_base(rotation)
+    env.build_chain(None)
+    env.project_sh(64)
+    phong = dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, ks=(KS,) * 3,
+                                exponent=CHAIN_EXPONENT)
+    wall = quad(np.array([0.0, -1.5, -1.5]), np.array([0.0, 3.0, 0.0]), np.array([0.0, 0.0, 3.0]),
+                np.array([1.0, 0.0, 0.0]), phong)
+    vs = VoxelScene(ctx, [wall], 32, 1, 6, 0.5, grid=vct_math.Cascades((0.5 * 4.4 / 32, 0.0, 0.0), 2.2, 32, 1),
+                    env_filter=env)
+    vs.update(None, env.sh_buffer)
+    east = vs.read_faces(0)[FACE_PX, 0, 15, 8:24, 8:24].reshape(-1, 4)
+    got = east[:, :3] / east[:, 3:4] / KS
+
+    def centre(face: int) -> np.ndarray:
+        s = CHAIN_BASE >> CHAIN_LEVEL
+        return env.read_level(CHAIN_LEVEL)[face, s // 2 - 1:s // 2 + 1, s // 2 - 1:s // 2 + 1].reshape(-1, 3).mean(0)
+
+    want = centre(0)
+    others = [centre(1), centre(4), centre(5)]
     vs.release()
     env.release()
     assert np.abs(got / want - 1.0).max() < 0.01, (got[:3], want)

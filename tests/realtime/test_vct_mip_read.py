@@ -21,8 +21,11 @@ import numpy as np
 import pytest
 
 import scenes
+from realtime.engine.context import get_context
+from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import shader_source
 from realtime.techniques.vct import vct_math
+from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 
 pytestmark = pytest.mark.gl
 
@@ -46,7 +49,6 @@ CONTROLS = {
 
 @pytest.fixture(scope="module")
 def ctx():
-    from realtime.engine.context import get_context
 
     return get_context()
 
@@ -110,7 +112,6 @@ BLOCK_TEXEL = {0: (0, 0, 0), 1: (1, 0, 0), 2: (2, 0, 0), 3: (3, 0, 0), 4: (0, 1,
 
 
 def blank_voxels(ctx, res: int):
-    from realtime.techniques.vct.vct import VoxelScene
 
     plane = scenes.load("builtin:sphere-on-plane").objects[1]
     return VoxelScene(ctx, [plane], res, 1, 6, 0.5, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, res, 1))
@@ -151,8 +152,6 @@ def exact_occlusion(x: np.ndarray, d: np.ndarray, half_angle: float, rng: np.ran
 def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
     """bowl-diffuse voxelised and injected, then every lit face set to radiance 1 (times its coverage,
     premultiplied), the outer wall's (voxel centres beyond the wall's mid-radius) to `outer_radiance`."""
-    from realtime.engine.environment_maps import environment_store
-    from realtime.techniques.vct.vct import VoxelScene
 
     scene = scenes.load("builtin:bowl-diffuse")
     env = environment_store(ctx, scene)
@@ -178,7 +177,6 @@ def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
 def blocked_cones(vs) -> np.ndarray:
     """The six diffuse cones at inner points 40, 55, 75 degrees from the bottom (three azimuths) whose every
     direction meets the inside: (radiance gathered, occlusion) per cone."""
-    from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS
 
     cones = vct_math.cone_set(6)
     rng = np.random.default_rng(1)

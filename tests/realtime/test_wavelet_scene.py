@@ -1,43 +1,20 @@
 """`realtime.diffuse = "wavelet_prt"` as a scene chooses it: registration, parameter checks and combination
 rules (realtime/techniques/wavelet_prt/declaration.py), each refusal with a valid neighbour as its control.
-
-`register` puts the package's entry point beside the installed builtins (as iblcheck's own pyproject.toml
-declares it) when the installed metadata does not have it yet, so these tests run before a reinstall."""
+The technique is found through its installed entry point, as every technique is."""
 
 from __future__ import annotations
+
+import tomllib
+from pathlib import Path
 
 import pytest
 
 import scenes
-from realtime.techniques.wavelet_prt import declaration
+from realtime.engine import technique
 from scenes.model import technique_registry as reg
 from scenes.storage.errors import SceneError
 
 ENTRY = "realtime.techniques.wavelet_prt.declaration:DECLARATIONS"
-
-
-class _Dist:
-    name = reg.BUILTIN_DISTRIBUTION
-
-
-class _EntryPoint:
-    """What the registry reads of an entry point (name, dist.name, load) for the package's line in pyproject."""
-
-    name, dist = "wavelet_prt", _Dist()
-
-    def load(self):
-        return declaration.DECLARATIONS
-
-
-@pytest.fixture
-def register(monkeypatch):
-    real = reg._entry_points
-    if not any(ep.name == "wavelet_prt" for ep in real()):
-        monkeypatch.setattr(reg, "_entry_points", lambda: [*real(), _EntryPoint()])
-        reg.registry.cache_clear()
-    yield
-    monkeypatch.setattr(reg, "_entry_points", real)
-    reg.registry.cache_clear()
 
 
 def wavelet_scene(name: str = "builtin:sphere-on-plane", **overrides) -> scenes.Scene:
@@ -45,20 +22,17 @@ def wavelet_scene(name: str = "builtin:sphere-on-plane", **overrides) -> scenes.
 
 
 def test_the_entry_point_in_pyproject_names_the_declarations():
-    import tomllib
-    from pathlib import Path
 
     data = tomllib.loads((Path(__file__).resolve().parents[2] / "pyproject.toml").read_text())
     assert data["project"]["entry-points"]["iblcheck.techniques"]["wavelet_prt"] == ENTRY
 
 
-def test_registered_for_the_three_effects_with_defaults(register):
+def test_registered_for_the_three_effects_with_defaults():
     assert [reg.lookup(e, "wavelet_prt").effect for e in ("diffuse", "occlusion", "interreflection")] == \
         ["diffuse", "occlusion", "interreflection"]
     scene = wavelet_scene()
     w = scene.realtime.wavelet_prt
     assert (w.cube_size, w.terms, w.threshold, w.bounces) == (32, 256, 1e-4, 0)
-    from realtime.engine import technique
     assert technique.describe(scene)["wavelet_prt"] == {"cube_size": 32, "terms": 256, "threshold": 1e-4}
 
 
@@ -77,7 +51,7 @@ def test_registered_for_the_three_effects_with_defaults(register):
     ({"realtime.wavelet_prt.rays": 64}, "hemisphere rays"),
     ({"objects.0.material.two_sided": True}, "two_sided"),
 ])
-def test_refusals_name_the_keys(register, overrides, message):
+def test_refusals_name_the_keys(overrides, message):
     with pytest.raises(SceneError, match=message.replace("[", r"\[").replace("]", r"\]").replace("^", r"\^")):
         wavelet_scene(**overrides)
 
@@ -89,9 +63,8 @@ def test_refusals_name_the_keys(register, overrides, message):
     {"realtime.occlusion": "wavelet_prt", "realtime.interreflection": "wavelet_prt", "realtime.wavelet_prt.bounces": 1,
      "realtime.wavelet_prt.rays": 64},
 ])
-def test_valid_neighbours_load(register, overrides):
+def test_valid_neighbours_load(overrides):
     """Controls of the refusals: the nearest valid settings load, and describe what runs."""
-    from realtime.engine import technique
 
     d = technique.describe(wavelet_scene(**overrides))["wavelet_prt"]
     for key, value in overrides.items():
@@ -99,10 +72,9 @@ def test_valid_neighbours_load(register, overrides):
             assert d[key.rsplit(".", 1)[1]] == value
 
 
-def test_only_the_diffuse_lobe_is_transferred(register):
+def test_only_the_diffuse_lobe_is_transferred():
     """A blend material's glossy lobe is not shadowed by the wavelet transfer: reported as unsimulated, as PRT's
     (control: the same scene with PRT says the same, a diffuse-only scene says nothing of the kind)."""
-    from realtime.engine import technique
 
     overrides = {"realtime.occlusion": "wavelet_prt", "objects.0.material.type": "blend",
                  "objects.0.material.ks": [0.3, 0.3, 0.3], "objects.0.material.exponent": 50.0}
@@ -114,8 +86,7 @@ def test_only_the_diffuse_lobe_is_transferred(register):
         **{"realtime.occlusion": "wavelet_prt"})))
 
 
-def test_describe_reports_the_gather_only_with_bounces(register):
-    from realtime.engine import technique
+def test_describe_reports_the_gather_only_with_bounces():
 
     scene = wavelet_scene(**{"realtime.occlusion": "wavelet_prt", "realtime.interreflection": "wavelet_prt",
                              "realtime.wavelet_prt.bounces": 2, "realtime.wavelet_prt.rays": 64})
