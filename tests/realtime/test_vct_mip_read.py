@@ -37,7 +37,7 @@ CONTROLS = {
     # every pair averaged as it is (no pair is a back)
     "mip_average": ("vct_mip.comp", "#define MIP_BACK_RATIO 1e-3", "#define MIP_BACK_RATIO -1.0"),
     # a face lit both ways counts whole in the radiance's normalisation
-    "front_binary": ("vct_cone.comp", "return rho_ref > 0.0 ? clamp(rho / rho_ref, 0.0, 1.0) : 1.0;",
+    "front_binary": ("vct_cone.comp", "return rho_ref > 0.0 ? clamp(vct_rho(against) / rho_ref, 0.0, 1.0) : 1.0;",
                      "return 1.0;"),
     # the radiance's reference is the brightest face read, not the dominant one
     "rho_brightest": ("vct_cone.comp",

@@ -60,6 +60,11 @@ vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
     return f > 0.0 ? mix(a, vct_texel(tex, local, c, l1), f) : a;
 }
 
+// the radiance per opacity of a face read (its brightest channel; 0 where transparent)
+float vct_rho(vec4 f) {
+    return f.a > 1e-6 ? max(f.r, max(f.g, f.b)) / f.a : 0.0;
+}
+
 // The share of an axis's face read against the cone that can carry light toward it. A surface of normal n
 // seen by a cone along d with n.d < 0 shows its front, but the cone reads it axis by axis, and on an axis
 // with n_a d_a > 0 the face against d is that surface's back: black (the injection lights a face only where
@@ -86,13 +91,7 @@ float vct_front(vec4 against, vec3 along, float rho_ref) {
     float b = max(along.r, max(along.g, along.b));
     if (b <= 0.0) return 1.0;
     if (a <= VCT_BACK_RATIO * b) return 0.0;
-    float rho = a / max(against.a, 1e-6);
-    return rho_ref > 0.0 ? clamp(rho / rho_ref, 0.0, 1.0) : 1.0;
-}
-
-// the radiance per opacity of a face read (its brightest channel; 0 where transparent)
-float vct_rho(vec4 f) {
-    return f.a > 1e-6 ? max(f.r, max(f.g, f.b)) / f.a : 0.0;
+    return rho_ref > 0.0 ? clamp(vct_rho(against) / rho_ref, 0.0, 1.0) : 1.0;
 }
 
 // What a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing against d.
