@@ -19,7 +19,6 @@ from realtime.techniques.wavelet_prt.wavelet_gpu import WaveletLighting, Wavelet
 from scenes.environment import cubemap, environments
 
 from .test_render import analytic_sphere, small
-from .test_wavelet_scene import register  # noqa: F401 (a fixture)
 from .test_wavelet_transfer import brute_force, scene_objects
 
 pytestmark = pytest.mark.gl
@@ -140,7 +139,7 @@ def furnace_range(scene, size: int) -> tuple[float, float]:
 
 
 @pytest.mark.parametrize("terms", [6, 1536, 1])
-def test_furnace_render(register, tmp_path, monkeypatch, terms):  # noqa: F811 (the fixture)
+def test_furnace_render(tmp_path, monkeypatch, terms):
     """A constant environment L: each face has one non-zero coefficient, so K = 6 is already exact, and every
     pixel of the diffuse sphere is kd L x a value between the min and max over the vertex normals of
     sum_t cos+ dOmega_t / pi (the interpolation stays between its vertices). Control: K = 1 keeps one face."""
@@ -160,7 +159,7 @@ def test_furnace_render(register, tmp_path, monkeypatch, terms):  # noqa: F811 (
 
 
 @pytest.mark.parametrize("terms", [6144, 16])
-def test_render_reads_each_vertex_own_irradiance(register, tmp_path, monkeypatch, terms):  # noqa: F811 (the fixture)
+def test_render_reads_each_vertex_own_irradiance(tmp_path, monkeypatch, terms):
     """The shading pass reads vertex v's sum by gl_VertexID: against PRT of order 8 (a separate technique whose
     per-vertex E is SH irradiance) under a sky with a broad sun off every axis (30 degrees of radius, azimuth 70,
     elevation 15, turned 40: no face or mirror of the cube looks like another), both interpolated alike, all terms
