@@ -172,6 +172,27 @@ def rel_mse(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, eps: floa
     return float(np.mean((t - r) ** 2 / (r * r + eps)))
 
 
+def brightest_share(image: np.ndarray, mask: np.ndarray, fraction: float) -> float | None:
+    """The share of a linear image's light that its brightest `fraction` of the masked pixels hold.
+
+    A pixel's light is its channel mean; negative values (the noise of a difference of two renders of a
+    non-negative quantity) and non-finite ones count as 0. The brightest ceil(fraction n) of the n masked
+    pixels are taken: a uniform image gives k / n, an image whose light is all in fewer pixels 1. None
+    where the mask is empty or holds no light. A mean ratio of two images can agree while their light sits
+    in very different pixels: this says how concentrated each one's is."""
+    if not 0.0 < fraction <= 1.0:
+        raise ValueError(f"fraction must be in (0, 1], got {fraction}")
+    if not mask.any():
+        return None
+    v = np.asarray(image, np.float64)[mask].mean(axis=-1)
+    v = np.where(np.isfinite(v), np.maximum(v, 0.0), 0.0)
+    total = float(v.sum())
+    if total <= 0.0:
+        return None
+    k = math.ceil(fraction * v.size)
+    return float(np.sort(v)[-k:].sum() / total)
+
+
 def noise_floor_psnr(display_a: np.ndarray, display_b: np.ndarray, mask: np.ndarray) -> float | None:
     """The best PSNR any image can reach against a reference with this much noise.
 

@@ -106,3 +106,36 @@ def test_compare_json_has_no_infinity(tmp_path):
     out = experiments.compare(empty, r, scene)
     assert out["psnr"] is None and out["pixels"] == 0
     json.dumps(out, allow_nan=False)
+
+
+@pytest.mark.parametrize("fraction", [0.02, 0.1, 0.5])
+def test_brightest_share_of_a_ramp_by_the_arithmetic_series(fraction, rng):
+    # pixels 1 .. n in a shuffled order: the top k hold (n + (n - k + 1)) k / 2 of n (n + 1) / 2
+    n = 400
+    img = np.repeat(rng.permutation(np.arange(1.0, n + 1.0)).reshape(20, 20, 1), 3, axis=2)
+    k = math.ceil(fraction * n)
+    expected = (2 * n - k + 1) * k / (n * (n + 1))
+    assert metrics.brightest_share(img, np.ones((20, 20), bool), fraction) == pytest.approx(expected, rel=1e-12)
+
+
+def test_brightest_share_uniform_against_concentrated():
+    mask = np.ones((10, 10), bool)
+    uniform = np.ones((10, 10, 3))
+    assert metrics.brightest_share(uniform, mask, 0.02) == pytest.approx(0.02)
+    # negative control: the same light in one pixel
+    one = np.zeros((10, 10, 3))
+    one[3, 4] = 100.0
+    assert metrics.brightest_share(one, mask, 0.02) == pytest.approx(1.0)
+
+
+def test_brightest_share_counts_negative_and_non_finite_pixels_as_dark():
+    img = np.array([[[-5.0] * 3, [1.0] * 3, [np.nan] * 3, [1.0] * 3, [np.inf] * 3, [1.0] * 3]])
+    assert metrics.brightest_share(img, np.ones((1, 6), bool), 1 / 6) == pytest.approx(1 / 3)
+
+
+def test_brightest_share_edges():
+    img = np.ones((4, 4, 3))
+    assert metrics.brightest_share(img, np.zeros((4, 4), bool), 0.1) is None
+    assert metrics.brightest_share(np.zeros((4, 4, 3)), np.ones((4, 4), bool), 0.1) is None
+    with pytest.raises(ValueError, match="fraction"):
+        metrics.brightest_share(img, np.ones((4, 4), bool), 0.0)
