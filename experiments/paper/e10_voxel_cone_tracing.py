@@ -33,7 +33,7 @@ import numpy as np
 
 import realtime
 import scenes
-from experiments.measure import convergence
+from experiments.measure import convergence, metrics
 from experiments.measure.results import ResultRow
 from experiments.paper import e10_voxel_storage
 from experiments.paper.context import Context
@@ -74,6 +74,9 @@ QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy
 FULL = Settings(grid=((32, 1, 6), (64, 1, 6), (128, 1, 6), (64, 2, 6), (64, 3, 6), (64, 2, 4), (64, 2, 9)),
                 frames=1, bounces=(1, 2, 3), energy_resolutions=(32, 64, 128), leak_resolutions=(32, 64, 128),
                 leak_offsets=5, ladder=True, storage=e10_voxel_storage.FULL)
+#: the energy table also gives the share of each one-bounce image's light held by its brightest 2 % of pixels:
+#: a mean ratio near or far from 1 can hide where the light sits (torus-phong's glossy bounce: a few pixels)
+BRIGHTEST = 0.02
 #: the ladder's rows: PRT of order 4, 256 rays, one bounce (diffuse scenes only: PRT transfers diffuse light);
 #: 42 geodesic lights with 1024^2 shadow maps
 PRT_LADDER = (4, 256, 1)
@@ -142,6 +145,10 @@ def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
     return g.bytes_per_cascade(vct.BYTES_PER_VOXEL) * cascades, g.single_texture_bytes(vct.BYTES_PER_VOXEL)
 
 
+def percent(x: float | None) -> str:
+    return "-" if x is None else f"{100 * x:.0f} %"
+
+
 def mib(b: float) -> str:
     return f"{b / 2**20:.1f}"
 
@@ -189,9 +196,11 @@ def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
     by_resolution = []
     for res in s.energy_resolutions:
         occ, inter = linear_mean(renders[("occ", res)], mask), linear_mean(renders[("all", res, 1)], mask)
+        bounce = renders[("all", res, 1)].rgb - renders[("occ", res)].rgb
         by_resolution.append({"resolution": res, "occlusion": occ, "interreflection": inter,
                               "indirect_vct": inter - occ, "indirect_ratio": ratio(inter - occ, path[3] - path[2]),
-                              "occluded_ratio": ratio(occ, path[2])})
+                              "occluded_ratio": ratio(occ, path[2]),
+                              "brightest_share": metrics.brightest_share(bounce, mask, BRIGHTEST)})
     occ_best = linear_mean(renders[("occ", best_res)], mask)
     by_bounces = []
     for b in s.bounces:
@@ -206,7 +215,8 @@ def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
             "indirect_vct": one["indirect_vct"], "indirect_path_one_bounce": path[3] - path[2],
             "indirect_path_all": path["full"] - path[2],
             "indirect_ratio": ratio(one["indirect_vct"], path[3] - path[2]),
-            "occluded_ratio": ratio(occ_best, path[2])}
+            "occluded_ratio": ratio(occ_best, path[2]),
+            "brightest_share_path": metrics.brightest_share(refs[3].rgb - refs[2].rgb, mask, BRIGHTEST)}
 
 
 def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1) -> list[dict]:
@@ -300,10 +310,13 @@ def run(context: Context, settings: Settings) -> Section:
     e_rows = [[name, "x".join(map(str, e["setting"])) if e["setting"] else "-", f4(e["direct"]), f4(e["occlusion"]),
                f4(e["interreflection"]), f4(e["path"][2]), f4(e["path"].get(3)), f4(e["path"]["full"]),
                f3(e["indirect_ratio"]), f3(e["occluded_ratio"])] for name, e in energy.items()]
+    top = f"{100 * BRIGHTEST:g} %"
     r_header = ["scene", "resolution", "cascades", "cones", "VCT indirect (1 bounce)", "path one bounce",
-                "indirect VCT / path", "VCT occlusion / path depth 2"]
+                "indirect VCT / path", "VCT occlusion / path depth 2", f"VCT bounce in its brightest {top} of pixels",
+                f"path bounce in its brightest {top}"]
     r_rows = [[name, str(x["resolution"]), str(e["cascades"]), str(e["cones"]), f4(x["indirect_vct"]),
-               f4(e["indirect_path_one_bounce"]), f3(x["indirect_ratio"]), f3(x["occluded_ratio"])]
+               f4(e["indirect_path_one_bounce"]), f3(x["indirect_ratio"]), f3(x["occluded_ratio"]),
+               percent(x["brightest_share"]), percent(e["brightest_share_path"])]
               for name, e in energy.items() for x in e["by_resolution"]]
     b_header = ["scene", "best setting", "bounces", "VCT indirect", "path indirect (depth 2 + bounces - depth 2)",
                 "indirect VCT / path"]
@@ -368,7 +381,11 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
                        "by resolution " + ", ".join(f"{x['resolution']}^3 {f3(x['indirect_ratio'])}"
                                                     for x in e["by_resolution"])
                        + "; by bounces " + ", ".join(f"{x['bounces']}: {f3(x['indirect_ratio'])}"
-                                                      for x in e["by_bounces"]) + ".")
+                                                      for x in e["by_bounces"])
+                       + f"; the brightest {100 * BRIGHTEST:g} % of pixels hold "
+                       + ", ".join(f"{percent(x['brightest_share'])}" for x in e["by_resolution"])
+                       + f" of VCT's bounce by resolution, {percent(e.get('brightest_share_path'))} of the "
+                       "path tracer's.")
     for x in leak:
         out.append(f"thin wall at {x['resolution']}^3 (voxel {x['voxel']:.4f}): {100 * x['leak']:.2f} % of the lit "
                    f"side's irradiance leaks inside (mean {100 * x['leak_mean']:.2f} %, at most "
