@@ -175,13 +175,18 @@ def rel_mse(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, eps: floa
 def brightest_share(image: np.ndarray, mask: np.ndarray, fraction: float) -> float | None:
     """The share of a linear image's light that its brightest `fraction` of the masked pixels hold.
 
-    A pixel's light is its channel mean; negative values (the noise of a difference of two renders of a
-    non-negative quantity) and non-finite ones count as 0. The brightest ceil(fraction n) of the n masked
-    pixels are taken: a uniform image gives k / n, an image whose light is all in fewer pixels 1. None
-    where the mask is empty or holds no light. A mean ratio of two images can agree while their light sits
-    in very different pixels: this says how concentrated each one's is."""
+    `image` is (H, W, C) and `mask` (H, W). A pixel's light is its channel mean; negative values (the noise
+    of a difference of two renders of a non-negative quantity) and non-finite ones count as 0. The brightest
+    k = ceil(fraction n) of the n masked pixels are taken (fraction n rounded to 9 decimals first, so that
+    0.07 of 100 pixels is 7, not the 8 that float rounding gives): a uniform image gives k / n, an image
+    whose light is all in k pixels or fewer 1. None where the mask is empty or holds no light. A mean ratio
+    of two images can agree while their light sits in very different pixels: this says how concentrated
+    each one's is."""
     if not 0.0 < fraction <= 1.0:
         raise ValueError(f"fraction must be in (0, 1], got {fraction}")
+    image = np.asarray(image)
+    if image.ndim != 3 or image.shape[:2] != mask.shape:
+        raise ValueError(f"image must be (H, W, C) over a (H, W) mask, got {image.shape} and {mask.shape}")
     if not mask.any():
         return None
     v = np.asarray(image, np.float64)[mask].mean(axis=-1)
@@ -189,7 +194,7 @@ def brightest_share(image: np.ndarray, mask: np.ndarray, fraction: float) -> flo
     total = float(v.sum())
     if total <= 0.0:
         return None
-    k = math.ceil(fraction * v.size)
+    k = math.ceil(round(fraction * v.size, 9))
     return float(np.sort(v)[-k:].sum() / total)
 
 

@@ -65,6 +65,11 @@ class Settings:
     ladder: bool  # PRT and light-array rows beside VCT's
     storage: e10_voxel_storage.Settings  # the seed's storage comparison on the procedural atrium
 
+    def __post_init__(self) -> None:
+        # the energy table's one-bounce columns (by resolution, the brightest pixels) compare with path depth 3
+        if 1 not in self.bounces:
+            raise ValueError(f"E10 settings: bounces must include 1 (the one-bounce energy), got {self.bounces}")
+
 
 QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy_resolutions=(32, 64),
                  leak_resolutions=(32, 64), leak_offsets=2, ladder=True, storage=e10_voxel_storage.QUICK)
@@ -146,6 +151,7 @@ def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
 
 
 def percent(x: float | None) -> str:
+    """A share as a whole percentage, "-" where there is none."""
     return "-" if x is None else f"{100 * x:.0f} %"
 
 
@@ -208,7 +214,7 @@ def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
         by_bounces.append({"bounces": b, "interreflection": inter, "indirect_vct": inter - occ_best,
                            "indirect_path": path[2 + b] - path[2],
                            "indirect_ratio": ratio(inter - occ_best, path[2 + b] - path[2])})
-    one = next(x for x in by_bounces if x["bounces"] == 1) if 1 in s.bounces else by_resolution[-1]
+    one = next(x for x in by_bounces if x["bounces"] == 1)
     return {"direct": linear_mean(renders["direct"], mask), "occlusion": occ_best,
             "interreflection": one["interreflection"], "path": path, "cascades": cascades, "cones": cones,
             "by_resolution": by_resolution, "by_bounces": by_bounces,
@@ -337,11 +343,14 @@ def run(context: Context, settings: Settings) -> Section:
             "the finest voxel over the outermost "
             "extent. Mean radiances are linear, over the pixels covered in every image; path depth 2 is direct "
             "light with occlusion, depth 2 + k adds k bounces; VCT's k bounces are `[realtime.vct] bounces = k` "
-            "(k - 1 gathered bounces re-injected into the voxels). The leak: the irradiance the diffuse cones "
-            "find on the ground inside a closed box with walls of zero thickness (one voxel once voxelised; the "
-            "path tracer's is 0) over the irradiance on the ground outside it, at the grid's own placement and "
-            f"over {s.leak_offsets} placements shifted by fractions of a voxel. The ladder rows: PRT of order "
-            f"{PRT_LADDER[0]}, {PRT_LADDER[1]} rays, {PRT_LADDER[2]} bounce (diffuse scenes), and "
+            "(k - 1 gathered bounces re-injected into the voxels). The brightest 2 %: the share of each one-bounce "
+            "image's light (VCT's occlusion + interreflection minus its occlusion, the path tracer's depth 3 minus "
+            "depth 2, over the same pixels) in its own brightest 2 % of pixels, negative pixels (the noise of a "
+            "difference of two renders) counted as 0, where the means above keep them. The leak: the irradiance "
+            "the diffuse cones find on the ground inside a closed box with walls of zero thickness (one voxel once "
+            "voxelised; the path tracer's is 0) over the irradiance on the ground outside it, at the grid's own "
+            f"placement and over {s.leak_offsets} placements shifted by fractions of a voxel. The ladder rows: "
+            f"PRT of order {PRT_LADDER[0]}, {PRT_LADDER[1]} rays, {PRT_LADDER[2]} bounce (diffuse scenes), and "
             f"{LIGHTS_LADDER[1]} {LIGHTS_LADDER[0]} lights with {LIGHTS_LADDER[2]}^2 shadow maps.")
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
           + report.md_table(e_header, e_rows) + "\n\n" + report.md_table(r_header, r_rows) + "\n\n"

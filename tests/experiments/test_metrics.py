@@ -108,12 +108,14 @@ def test_compare_json_has_no_infinity(tmp_path):
     json.dumps(out, allow_nan=False)
 
 
-@pytest.mark.parametrize("fraction", [0.02, 0.1, 0.5])
-def test_brightest_share_of_a_ramp_by_the_arithmetic_series(fraction, rng):
-    # pixels 1 .. n in a shuffled order: the top k hold (n + (n - k + 1)) k / 2 of n (n + 1) / 2
+@pytest.mark.parametrize(("fraction", "k"), [(0.02, 8), (0.1, 40), (0.5, 200), (0.0125, 5), (0.0101, 5)])
+def test_brightest_share_of_a_ramp_by_the_arithmetic_series(fraction, k, rng):
+    # pixels 1 .. n in a shuffled order, each channel a different multiple of it (the channel mean is 2 x):
+    # the brightest k hold (n + (n - k + 1)) k / 2 of n (n + 1) / 2; k written out by hand, ceil(fraction n)
+    # (0.0101 of 400 is 4.04: 5 pixels)
     n = 400
-    img = np.repeat(rng.permutation(np.arange(1.0, n + 1.0)).reshape(20, 20, 1), 3, axis=2)
-    k = math.ceil(fraction * n)
+    ramp = rng.permutation(np.arange(1.0, n + 1.0)).reshape(20, 20, 1)
+    img = np.concatenate([ramp, 2.0 * ramp, 3.0 * ramp], axis=2)
     expected = (2 * n - k + 1) * k / (n * (n + 1))
     assert metrics.brightest_share(img, np.ones((20, 20), bool), fraction) == pytest.approx(expected, rel=1e-12)
 
@@ -122,20 +124,41 @@ def test_brightest_share_uniform_against_concentrated():
     mask = np.ones((10, 10), bool)
     uniform = np.ones((10, 10, 3))
     assert metrics.brightest_share(uniform, mask, 0.02) == pytest.approx(0.02)
+    # 0.07 of 100 pixels is 7 pixels (7 % of the light), where float rounding would ceil to 8
+    assert metrics.brightest_share(uniform, mask, 0.07) == pytest.approx(0.07)
+    # 0.015 of 100 is 1.5: 2 pixels
+    assert metrics.brightest_share(uniform, mask, 0.015) == pytest.approx(0.02)
     # negative control: the same light in one pixel
     one = np.zeros((10, 10, 3))
     one[3, 4] = 100.0
     assert metrics.brightest_share(one, mask, 0.02) == pytest.approx(1.0)
 
 
+def test_brightest_share_counts_only_masked_pixels():
+    # a bright pixel outside the mask does not count: the masked half is uniform
+    img = np.ones((4, 4, 3))
+    img[0, 0] = 1000.0
+    mask = np.zeros((4, 4), bool)
+    mask[2:] = True
+    assert metrics.brightest_share(img, mask, 1 / 8) == pytest.approx(1 / 8)
+
+
 def test_brightest_share_counts_negative_and_non_finite_pixels_as_dark():
-    img = np.array([[[-5.0] * 3, [1.0] * 3, [np.nan] * 3, [1.0] * 3, [np.inf] * 3, [1.0] * 3]])
-    assert metrics.brightest_share(img, np.ones((1, 6), bool), 1 / 6) == pytest.approx(1 / 3)
+    # light 1, 2, 3 beside -5, NaN and Inf: the brightest one of the six holds 3 of 6
+    img = np.array([[[-5.0] * 3, [1.0] * 3, [np.nan] * 3, [2.0] * 3, [np.inf] * 3, [3.0] * 3]])
+    assert metrics.brightest_share(img, np.ones((1, 6), bool), 1 / 6) == pytest.approx(0.5)
+
+
+@pytest.mark.parametrize("fraction", [0.0, -0.1, 1.5])
+def test_brightest_share_refuses_a_fraction_outside_0_1(fraction):
+    with pytest.raises(ValueError, match="fraction"):
+        metrics.brightest_share(np.ones((4, 4, 3)), np.ones((4, 4), bool), fraction)
 
 
 def test_brightest_share_edges():
     img = np.ones((4, 4, 3))
     assert metrics.brightest_share(img, np.zeros((4, 4), bool), 0.1) is None
     assert metrics.brightest_share(np.zeros((4, 4, 3)), np.ones((4, 4), bool), 0.1) is None
-    with pytest.raises(ValueError, match="fraction"):
-        metrics.brightest_share(img, np.ones((4, 4), bool), 0.0)
+    assert metrics.brightest_share(img, np.ones((4, 4), bool), 1.0) == pytest.approx(1.0)
+    with pytest.raises(ValueError, match="H, W, C"):
+        metrics.brightest_share(np.ones((4, 4)), np.ones((4, 4), bool), 0.1)

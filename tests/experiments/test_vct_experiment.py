@@ -3,6 +3,8 @@ suite's progress bar uses, the memory comparison, and the thin-wall leak measure
 
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from experiments.paper import e10_voxel_cone_tracing as e10
@@ -49,3 +51,9 @@ def test_thin_wall_leak_is_measured():
     assert x["leak"] == pytest.approx(x["inside"] / x["outside"])
     assert min(x["leak"], x["leak_mean"]) <= x["leak_mean"] <= x["leak_max"] and x["placements"] == 2
     assert x["visibility_inside"] < x["visibility_outside"]
+
+
+def test_settings_without_one_bounce_are_refused():
+    # the energy table's one-bounce columns compare with the path tracer's depth 3
+    with pytest.raises(ValueError, match="bounces must include 1"):
+        dataclasses.replace(e10.QUICK, bounces=(2, 3))
