@@ -134,6 +134,13 @@ def test_brightest_share_uniform_against_concentrated():
     assert metrics.brightest_share(one, mask, 0.02) == pytest.approx(1.0)
 
 
+def test_brightest_share_takes_the_channel_mean():
+    # red 1 against blue 2: channel means 1/3 and 2/3, so the brighter of the two holds 2/3 (a reading of one
+    # channel would rank red first)
+    img = np.array([[[1.0, 0.0, 0.0], [0.0, 0.0, 2.0]]])
+    assert metrics.brightest_share(img, np.ones((1, 2), bool), 0.5) == pytest.approx(2 / 3)
+
+
 def test_brightest_share_counts_only_masked_pixels():
     # a bright pixel outside the mask does not count: the masked half is uniform
     img = np.ones((4, 4, 3))
