@@ -6,6 +6,10 @@ from pathlib import Path
 
 import numpy as np
 
+from realtime.engine.environment_maps import environment_store
+from realtime.techniques.vct.vct import VoxelScene
+from scenes.model.scene import Scene
+
 
 def write_scene(tmp_path: Path, text: str, name: str = "scene.toml") -> Path:
     path = tmp_path / name
@@ -75,3 +79,16 @@ def trilinear(chain: list[np.ndarray], d: np.ndarray, lod: float) -> tuple[np.nd
     a, inside_a = bilinear(chain[lo], face, s, t)
     b, inside_b = bilinear(chain[hi], face, s, t)
     return (1 - w) * a + w * b, inside_a & inside_b
+
+
+def scene_voxels(ctx, scene: Scene, resolution: int) -> VoxelScene:
+    """The scene's objects voxelised and injected at `resolution`^3, one cascade, six cones, step 0.5, under the
+    scene's environment (its SH9 from a 64^2 filter); the caller releases the voxels."""
+    env = environment_store(ctx, scene)
+    env.fill_base(scene.environment.rotation_deg)
+    env.build_chain(None)
+    env.project_sh(64)
+    vs = VoxelScene(ctx, scene.objects, resolution, 1, 6, 0.5)
+    vs.update(None, env.sh_buffer)
+    env.release()
+    return vs

@@ -22,10 +22,10 @@ import pytest
 
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
 from realtime.engine.gpu import shader_source
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
+from tests.helpers import scene_voxels
 
 pytestmark = pytest.mark.gl
 
@@ -153,14 +153,7 @@ def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
     """bowl-diffuse voxelised and injected, then every lit face set to radiance 1 (times its coverage,
     premultiplied), the outer wall's (voxel centres beyond the wall's mid-radius) to `outer_radiance`."""
 
-    scene = scenes.load("builtin:bowl-diffuse")
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
-    vs = VoxelScene(ctx, scene.objects, res, 1, 6, 0.5)
-    vs.update(None, env.sh_buffer)
-    env.release()
+    vs = scene_voxels(ctx, scenes.load("builtin:bowl-diffuse"), res)
     apply_control(ctx, vs, control)
     f = vs.read_faces(0)
     g = vs.grid
