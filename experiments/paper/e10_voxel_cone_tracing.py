@@ -392,8 +392,8 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
                        + "; by bounces " + ", ".join(f"{x['bounces']}: {f3(x['indirect_ratio'])}"
                                                       for x in e["by_bounces"])
                        + f"; the brightest {100 * BRIGHTEST:g} % of pixels hold "
-                       + ", ".join(f"{percent(x['brightest_share'])}" for x in e["by_resolution"])
-                       + f" of VCT's bounce by resolution, {percent(e.get('brightest_share_path'))} of the "
+                       + ", ".join(percent(x["brightest_share"]) for x in e["by_resolution"])
+                       + f" of VCT's bounce by resolution, {percent(e['brightest_share_path'])} of the "
                        "path tracer's.")
     for x in leak:
         out.append(f"thin wall at {x['resolution']}^3 (voxel {x['voxel']:.4f}): {100 * x['leak']:.2f} % of the lit "

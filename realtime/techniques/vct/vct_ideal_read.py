@@ -29,12 +29,13 @@ def ideal_axis_cone_occlusion(alpha: np.ndarray, voxel: float, grid_min: np.ndar
     alpha = np.asarray(alpha, dtype=np.float64)
     res = alpha.shape[0]
     grid_min = np.asarray(grid_min, dtype=np.float64)
+    origin = np.asarray(origin, dtype=np.float64)
     d = np.zeros(3)
     d[axis] = float(sign)
     lateral = [a for a in range(3) if a != axis]
     transmittance, t = 1.0, float(t0)
     while transmittance > 1e-6:
-        p = np.asarray(origin, dtype=np.float64) + t * d
+        p = origin + t * d
         w = 2.0 * t * tan_half
         w = min(w, 2.0 * sign * (p[axis] - clear_from))
         if w < voxel:  # still too near the surface for a box of one voxel: move on by one
