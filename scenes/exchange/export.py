@@ -28,6 +28,8 @@ from scenes.storage import imageio
 GLTF = "scene.gltf"
 BIN = "scene.bin"
 ENVIRONMENT = "environment.hdr"
+#: every file an export writes: an earlier export holding anything else is not replaced (folder.py)
+FILES = frozenset({GLTF, BIN, ENVIRONMENT, sidecar.NAME, fidelity.SCENARIO, fidelity.LIGHTING})
 
 
 @dataclass(frozen=True)
@@ -128,7 +130,7 @@ def export_scene(scene, folder: str | Path, nearest: bool = False, fidelity_scen
         raise ValueError("the resampled environment holds NaN or Inf")  # cannot happen: lookup of a checked map
     doc = b.document(BIN)
     side = sidecar_document(scene, objects, camera_node, b.cameras[0]["perspective"], vmap.shape, content_id)
-    with atomic_folder(folder, sidecar.is_export, "iblcheck export") as tmp:
+    with atomic_folder(folder, sidecar.is_export, "iblcheck export", FILES) as tmp:
         (tmp / GLTF).write_bytes(json_bytes(doc))
         (tmp / BIN).write_bytes(b.binary())
         imageio.write_hdr(tmp / ENVIRONMENT, vmap)

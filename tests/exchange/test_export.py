@@ -12,7 +12,8 @@ import pytest
 import scenes
 from scenes.environment import envmap
 from scenes.exchange import export as export_module
-from scenes.exchange.export import export_scene
+from scenes.exchange import sidecar
+from scenes.exchange.export import BIN, ENVIRONMENT, GLTF, export_scene
 from scenes.storage import imageio
 from scenes.storage.errors import InputError
 from tests.exchange.gltf_numpy import camera_rays, centre_direction, read_gltf, rot_y, viewer_lookup
@@ -167,11 +168,32 @@ def test_existing_folder_refused_and_earlier_export_replaced(tmp_path):
     with pytest.raises(InputError, match="not empty"):
         export_scene(scene, tmp_path / "mine")
     assert os.listdir(tmp_path / "mine") == ["notes.txt"]
-    export_scene(scene, tmp_path / "out")
-    (tmp_path / "out" / "stale.txt").write_text("old")
-    export_scene(scene, tmp_path / "out")  # an earlier export: replaced whole
-    assert not (tmp_path / "out" / "stale.txt").exists()
+    export_scene(scene, tmp_path / "out", fidelity_scenario=True)
+    export_scene(scene, tmp_path / "out")  # an earlier export: replaced whole, its scenario file with it
+    assert sorted(os.listdir(tmp_path / "out")) == sorted([GLTF, BIN, ENVIRONMENT, sidecar.NAME])
     assert sorted(os.listdir(tmp_path)) == ["mine", "out"]  # no temporary folder left
+
+
+def test_an_earlier_export_holding_a_users_file_is_not_replaced(tmp_path):
+    """An engine's image saved into an earlier export would be lost with the folder: refused, named."""
+    scene = scenes.load("builtin:sphere-diffuse")
+    export_scene(scene, tmp_path / "out")
+    (tmp_path / "out" / "my_engine.exr").write_bytes(b"mine")
+    before = sorted(os.listdir(tmp_path / "out"))
+    with pytest.raises(InputError, match=r"out: holds 'my_engine.exr', which no iblcheck export writes"):
+        export_scene(scene, tmp_path / "out")
+    assert sorted(os.listdir(tmp_path / "out")) == before
+    assert (tmp_path / "out" / "my_engine.exr").read_bytes() == b"mine"
+    assert sorted(os.listdir(tmp_path)) == ["out"]
+
+
+def test_a_folder_that_cannot_be_made_is_named_not_its_temporary(tmp_path):
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(InputError) as info:
+        export_scene(scenes.load("builtin:sphere-diffuse"), tmp_path / "file" / "out")
+    message = str(info.value)
+    assert message.startswith(f"{tmp_path / 'file' / 'out'}: cannot write a folder in {tmp_path / 'file'}")
+    assert ".tmp" not in message
 
 
 def test_nothing_half_written(tmp_path, monkeypatch):
