@@ -124,7 +124,8 @@ def ssim(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, data_range: 
     float or None
         The mean of the channel-mean SSIM map over `mask` minus the 3-pixel border scikit-image itself
         leaves out (`ssim_selection`), so that with an all-True mask it equals
-        `skimage.metrics.structural_similarity(test, reference, data_range=..., channel_axis=-1)`.
+        `skimage.metrics.structural_similarity(test, reference, data_range=..., channel_axis=-1)` up to
+        rounding: the map is clipped to [-1, 1], SSIM's range, which rounding can leave by ~1e-15.
         None when the mask is empty, the 7x7 window does not fit, or no masked pixel is inside the border.
     SSIMResult
         With `full`: ``(value, map, selection)``, where ``map`` is the (H, W) channel-mean SSIM map of the
@@ -139,7 +140,10 @@ def ssim(test: np.ndarray, reference: np.ndarray, mask: np.ndarray, data_range: 
         return none  # the 7x7 window does not fit
     _, smap = structural_similarity(np.asarray(test, np.float64), np.asarray(reference, np.float64),
                                     data_range=data_range, channel_axis=-1, full=True)
-    channel_mean = smap.mean(axis=-1)
+    # SSIM lies in [-1, 1] (Wang et al. 2004, eq. 13 and its Cauchy-Schwarz bound), but scikit-image's local
+    # means are running sums (scipy's uniform_filter): one pixel that differs changes their rounding along its
+    # whole row, so windows identical in both images read 1 + a few 1e-16 and their mean can exceed 1
+    channel_mean = np.clip(smap, -1.0, 1.0).mean(axis=-1)
     sel = ssim_selection(mask)
     value = float(channel_mean[sel].mean()) if sel.any() else None
     return SSIMResult(value, channel_mean, sel) if full else value

@@ -7,6 +7,7 @@ import math
 
 import numpy as np
 import pytest
+from skimage.metrics import structural_similarity
 
 from experiments.measure import metrics
 from scenes.model.render import Render
@@ -52,12 +53,26 @@ def test_empty_mask_gives_none_everywhere(image):
 
 
 def test_ssim_matches_scikit_image_unmasked(image, rng):
-    from skimage.metrics import structural_similarity
-
     other = np.clip(image + rng.normal(0, 0.05, image.shape), 0, 1)
     mask = np.ones(image.shape[:2], bool)
     expected = structural_similarity(other, image, data_range=1.0, channel_axis=-1)
     assert metrics.ssim(other, image, mask) == pytest.approx(expected, abs=1e-12)
+
+
+def test_ssim_stays_in_its_range_when_one_pixel_differs():
+    """SSIM is at most 1 (Wang et al. 2004). One changed pixel shifts the rounding of scikit-image's running-sum
+    window means along its row, so the windows that hold no changed pixel read a few 1e-16 above 1 there
+    (the control below); the value over a mask of identical pixels is exactly 1, never above it."""
+    rng = np.random.default_rng(2)
+    a = rng.random((40, 40, 3))
+    b = a.copy()
+    b[20, 3] = 1.0 - np.round(a[20, 3])
+    _, raw = structural_similarity(a, b, data_range=1.0, channel_axis=-1, full=True)
+    assert raw.max() > 1.0  # the control: the unclipped map leaves SSIM's range
+    mask = np.ones((40, 40), bool)
+    mask[10:31, :14] = False  # every window holding the changed pixel
+    assert metrics.ssim(a, b, mask) == 1.0
+    assert metrics.ssim(a, b, np.ones((40, 40), bool)) < 1.0
 
 
 def test_common_mask_and_erosion():
