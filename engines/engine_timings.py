@@ -9,11 +9,14 @@ The JSON file (every key optional):
 
 They become a Render's timings like iblcheck's own: `draw` and `total` the median frame time, `draw_p90` its
 90th percentile, `precompute`. A number that is not finite and >= 0, or a key of the wrong kind, is refused
-naming the file and key: a frame time is a claim the reports print.
+naming the file and key: a frame time is a claim the reports print. Other keys are the engine's own and are
+left unread (the bundled engines add load and first-frame times), except one that looks like a misspelt key
+the file lacks (`frame_msec` without `frame_ms`): that is refused, since its numbers would silently vanish.
 """
 
 from __future__ import annotations
 
+import difflib
 import json
 import math
 from dataclasses import dataclass
@@ -61,6 +64,22 @@ def _text(tree: dict, key: str, path: Path) -> str:
 MAX_BYTES = 1 << 20
 
 
+#: the keys read; any other key is the engine's own
+KEYS = ("engine", "version", "frame_ms", "precompute_ms", "notes")
+#: how close (difflib's ratio) an unknown key must be to a missing known one to count as its misspelling
+MISSPELT_RATIO = 0.75
+
+
+def _check_keys(tree: dict, where: str) -> None:
+    missing = [k for k in KEYS if k not in tree]
+    for key in tree:
+        if key in KEYS:
+            continue
+        close = difflib.get_close_matches(str(key), missing, n=1, cutoff=MISSPELT_RATIO)
+        if close:
+            raise InputError(f"{where}: {key} is not a timings key; did you mean {close[0]}? (read: {', '.join(KEYS)})")
+
+
 def _no_constant(name: str):
     raise ValueError(f"holds {name}, which is no JSON number")
 
@@ -75,6 +94,7 @@ def read(path: Path, origin: str = "") -> EngineTimings:
         raise InputError(f"{where}: not a readable JSON file of frame timings ({exc})") from None
     if not isinstance(tree, dict):
         raise InputError(f"{where}: must be a JSON object, got {type(tree).__name__}")
+    _check_keys(tree, where)
     frames = tree.get("frame_ms", None)
     if frames is None:
         frames = []

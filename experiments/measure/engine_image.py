@@ -16,10 +16,11 @@ Two kinds of image (docs/contract.md, the display-space rule):
   common mask of those display values. The linear metrics (rel_mse, psnr_unbiased) are None:
   "display-space metrics only (the image is tone-mapped sRGB)".
 
-A linear image is read by engines/linear_image.py, as an engine run as a command is: its OpenEXR alpha, when
-it has one, is the engine's coverage (alpha >= 0.5); without it the reference's coverage decides which pixels
-count. A PNG's alpha is ignored (a screenshot's alpha says nothing about coverage). The timings JSON is read by
-engines/engine_timings.py. Every problem with the file is a `scenes.InputError` naming it.
+A linear image is read by engines/linear_image.py, as an engine run as a command is: its OpenEXR alpha, when it
+has one, is the engine's coverage (alpha >= 0.5; an alpha below 0.5 everywhere is refused: nothing would be
+compared); without it the reference's coverage decides which pixels count. A PNG's alpha is ignored (a
+screenshot's alpha says nothing about coverage). The timings JSON is read by engines/engine_timings.py. Every
+problem with the file is a `scenes.InputError` naming it.
 """
 
 from __future__ import annotations
@@ -117,6 +118,9 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
                              f"tone mapping {tonemap!r} and exposure {exposure:g} apply to an srgb image only")
         linear = linear_image.read(path)
         values, bits, alpha, coverage = linear.rgb, None, False, linear.coverage
+        if coverage is not None and not coverage.any():
+            raise InputError(f"{path}: alpha < 0.5 at every pixel; an OpenEXR alpha is the engine's coverage, so no "
+                             "pixel would be compared: write alpha 1 where the engine drew, or no alpha channel")
     else:
         if suffix in LINEAR_SUFFIXES:
             raise InputError(f"{path}: a {suffix} file holds linear radiance, not sRGB code values; read it as "

@@ -126,6 +126,24 @@ def test_timings_file_values_are_checked_against_their_meaning(tmp_path):
             engine_timings.read(path)
 
 
+@pytest.mark.parametrize("key, meant", [("frame_msec", "frame_ms"), ("precompute", "precompute_ms"),
+                                       ("engnie", "engine")])
+def test_a_misspelt_timings_key_is_refused_naming_the_key_meant(tmp_path, key, meant):
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps({key: [2.5, 3.5] if "ms" in meant else "x"}))
+    with pytest.raises(scenes.InputError, match=rf"t.json: {key} is not a timings key; did you mean {meant}\?"):
+        engine_timings.read(path)
+
+
+def test_an_engines_own_keys_are_left_unread(tmp_path):
+    """What the bundled engines add beside the read keys (load and first-frame times, a median they computed)
+    is theirs: not refused, even where close to a read key that the file also holds."""
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps({"frame_ms": [2.0], "median_frame_ms": 2.0, "first_frame_ms": 90.0, "load_ms": 5.0,
+                                "render_s": 1.0, "spp": 64, "seed": 0}))
+    assert engine_timings.read(path).as_render_timings()["draw"] == 2.0
+
+
 def test_the_opengl_renderer_refuses_a_command_scene(tmp_path):
     with pytest.raises(scenes.InputError, match="external engine"):
         realtime.render(engine_scene(tmp_path, ""))

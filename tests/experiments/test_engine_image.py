@@ -86,6 +86,18 @@ def test_png_as_linear_refused_and_exr_as_srgb_refused(scene, tmp_path):
         engine_image.read_engine_image(tmp_path / "a.exr", scene, "srgb", "agx")
 
 
+def test_an_exr_alpha_is_coverage_and_one_covering_nothing_is_refused(scene, tmp_path):
+    rgb = np.full((64, 64, 3), 0.5, np.float32)
+    alpha = np.zeros((64, 64), np.float32)
+    write_exr(tmp_path / "none.exr", rgb, alpha)
+    with pytest.raises(InputError, match=r"none.exr: alpha < 0.5 at every pixel"):
+        engine_image.read_engine_image(tmp_path / "none.exr", scene)
+    alpha[10:20, 30:40] = 1.0  # the control: some coverage is read as it is
+    write_exr(tmp_path / "some.exr", rgb, alpha)
+    coverage = engine_image.read_engine_image(tmp_path / "some.exr", scene).coverage
+    assert coverage.sum() == 100 and coverage[10:20, 30:40].all()
+
+
 def test_alpha_is_ignored_and_timings_read(scene, tmp_path):
     rgba = np.zeros((64, 64, 4), np.uint8)
     rgba[..., 0], rgba[..., 3] = 200, 7
