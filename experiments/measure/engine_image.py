@@ -41,6 +41,7 @@ from scenes.model import tone_operators
 from scenes.model.render import Render
 from scenes.model.tonemap import srgb_decode, srgb_encode
 from scenes.storage import imageio as hdr_io
+from scenes.storage import png16
 
 ENCODINGS = ("linear", "srgb")
 #: file suffixes per encoding
@@ -137,12 +138,24 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
                        reported.engine or None, reported.version or None, alpha, coverage)
 
 
+def _png_bits(path: Path) -> int | None:
+    """A PNG's bit depth, None for a file that is not one (a JPEG saved as .png: Pillow reads it)."""
+    try:
+        return png16.bit_depth(path)
+    except InputError:
+        return None
+
+
 def _read_display(path: Path) -> tuple[np.ndarray, int, bool]:
     """Code values in [0, 1], the bit depth, and whether an alpha channel was dropped."""
-    try:
-        raw = iio.imread(path)
-    except Exception as exc:  # imageio/Pillow raise OSError, ValueError, SyntaxError for corrupt files
-        raise InputError(f"{path}: not a readable PNG or JPEG image ({type(exc).__name__})") from None
+    if path.suffix.lower() == ".png" and _png_bits(path) == 16:
+        raw = png16.read(path)  # Pillow would read a 16-bit RGB(A) PNG as 8 bits a channel
+        raw = raw[..., 0] if raw.shape[2] == 1 else raw
+    else:
+        try:
+            raw = iio.imread(path, plugin="pillow")  # named: imageio's fallback plugins warn before they fail
+        except Exception as exc:  # imageio/Pillow raise OSError, ValueError, SyntaxError for corrupt files
+            raise InputError(f"{path}: not a readable PNG or JPEG image ({type(exc).__name__})") from None
     if raw.dtype == np.uint8:
         bits, top = 8, 255.0
     elif raw.dtype == np.uint16:

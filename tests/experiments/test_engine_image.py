@@ -8,7 +8,9 @@ with the wrong operator it scores lower (negative control).
 
 from __future__ import annotations
 
+import gc
 import json
+import warnings
 
 import imageio.v3 as iio
 import numpy as np
@@ -23,6 +25,7 @@ from scenes.model import tone_operators
 from scenes.model.render import Render
 from scenes.model.tonemap import srgb_encode, to_uint8
 from scenes.storage.imageio import write_exr, write_pfm
+from tests.scenes.test_png16 import encode as encode_png16
 
 SCENE = "builtin:sphere-diffuse"
 TINY = ["camera.width=64", "camera.height=64", "reference.spp=64", "realtime.timing_frames=2",
@@ -109,6 +112,25 @@ def test_alpha_is_ignored_and_timings_read(scene, tmp_path):
     assert img.values[0, 0].tolist() == [200 / 255, 0.0, 0.0]
     # the median of 1, 2, 3, and its 90th percentile interpolated between 2 and 3
     assert img.timings == {"draw": 2.0, "total": 2.0, "draw_p90": 2.8, "precompute": 5.0}
+
+
+def test_a_16_bit_rgb_png_keeps_its_16_bits(scene, tmp_path):
+    """Pillow alone reads 48-bit PNGs as 8 bits a channel (tests/scenes/test_png16.py)."""
+    samples = np.random.default_rng(5).integers(0, 65536, (64, 64, 3), np.uint16)
+    (tmp_path / "c.png").write_bytes(encode_png16(samples, 2, [4]))
+    img = engine_image.read_engine_image(tmp_path / "c.png", scene, "srgb", "none")
+    assert img.bits == 16
+    np.testing.assert_array_equal(img.values, samples / 65535.0)
+
+
+def test_a_file_that_is_no_image_gives_one_error_and_no_warning(scene, tmp_path):
+    (tmp_path / "text.jpg").write_text("hello")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        with pytest.raises(InputError, match="text.jpg: not a readable PNG or JPEG image"):
+            engine_image.read_engine_image(tmp_path / "text.jpg", scene, "srgb", "none")
+        gc.collect()  # an unclosed file warns when it is collected
+    assert [str(w.message) for w in caught] == []
 
 
 def test_display_reference_quantised_to_the_files_bits(scene, tmp_path):
