@@ -104,6 +104,22 @@ def test_srgb_and_exposure_by_hand():
     assert math.isclose(hypotheses.fit_exposure(p, 2.5 * p, mask), 2.5)
 
 
+@pytest.mark.parametrize("minimum", [0.0, 0.4, -0.7, 3.6, -5.2])
+def test_the_final_parabola_walks_to_a_minimum_beyond_its_window(minimum):
+    """A quadratic's minimum is found exactly from 0 with a window of +-1, however far (up to the walk's
+    reach) it lies: the proxy's best angle can be degrees off the reference's."""
+    calls = []
+
+    def f(x):
+        calls.append(x)
+        return (x - minimum) ** 2 + 2.0
+
+    assert fitting.parabola_walk(f, 0.0, 1.0, fitting.MAX_WALK) == pytest.approx(minimum, abs=1e-9)
+    # the control: the single parabola the walk starts with stops at its window's edge
+    assert fitting._parabola_vertex(f, 0.0, 1.0) == pytest.approx(float(np.clip(minimum, -1.0, 1.0)), abs=1e-9)
+    assert len(calls) <= 3 * (fitting.MAX_WALK + 1) + 3
+
+
 # --------------------------------------------------------------------------- planted mistakes (Mitsuba)
 
 
