@@ -14,12 +14,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import warnings
 
 from experiments.cli.inputs import UsageError, load_scene
 from experiments.measure import diagnosis, engine_image
 from experiments.measure.diagnosis import hypotheses
 from experiments.measure.diagnosis.renders import RENDERERS
 from experiments.publish import outputs
+from groundtruth.exact import quadrature
 from scenes.model import tone_operators
 
 
@@ -67,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"{path}: --image-encoding srgb needs --tonemap NAME, the operator the engine applied")
     image = engine_image.read_engine_image(path, scene, encoding, args.tonemap or "none",
                                            1.0 if args.exposure is None else args.exposure)
+    if args.reference == "quadrature" and (why := quadrature.inexact_for(scene)):
+        warnings.warn(why, quadrature.NotTheReference, stacklevel=2)
     display = (diagnosis.Display(image.tonemap, image.exposure, image.bits) if image.display_space else None)
     with outputs.progress("diagnose", 1) as step:
         kind = hypotheses.DISPLAY if display else hypotheses.LINEAR

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,8 @@ def render_with(renderer: str, scene) -> Render:
     if renderer == "reference":
         return groundtruth.render(scene)
     if renderer == "quadrature":
+        if why := quadrature.inexact_for(scene):
+            warnings.warn(why, quadrature.NotTheReference, stacklevel=2)
         return quadrature.render(scene)
     raise UsageError(f"--renderer {renderer!r}: choose realtime, reference or quadrature")
 

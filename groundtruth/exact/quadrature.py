@@ -558,6 +558,21 @@ def shade(material, env: np.ndarray, normals: np.ndarray, views: np.ndarray) -> 
     return out
 
 
+class NotTheReference(UserWarning):
+    """The quadrature rendered a scene whose objects shadow or reflect each other (or themselves): it ignores
+    that, so its image is not the scene's reference."""
+
+
+def inexact_for(scene) -> str | None:
+    """Why the quadrature's image is not `scene`'s reference (None when it is): it integrates the environment
+    unoccluded, exact for one convex object only (the scene's `occlusion` effect)."""
+    if "occlusion" not in scene.effects:
+        return None
+    why = (f"{len(scene.objects)} objects" if len(scene.objects) > 1 else "a non-convex object")
+    return (f"{scene.name}: the quadrature ignores occlusion and interreflection, which {why} cause here; its "
+            "image is not this scene's reference (use the path tracer: --renderer reference)")
+
+
 def render(scene, subpixels: int = 4) -> Render:
     """The noise-free, unoccluded reference of `scene` (see the module docstring)."""
     if scene.reference.lighting != "environment":

@@ -12,6 +12,8 @@ import numpy as np
 import pytest
 
 import groundtruth
+import scenes
+from experiments.cli import main as cli
 from experiments.measure import metrics
 from groundtruth.exact import quadrature, raycast
 from tests.groundtruth.common import furnace_scene, horizon_fraction, masked_psnr, small
@@ -106,3 +108,22 @@ def test_quadrature_constant_environment(tmp_path, material):
         # what is checked is there to be seen: the horizon loss of a wide lobe, F rising to the silhouette
         assert np.ptp(expected[inside]) > 0.05
     np.testing.assert_allclose(q.rgb[outside], 1.0, atol=1e-6)  # the background
+
+
+@pytest.mark.parametrize("name, why", [("builtin:sphere-diffuse", None), ("builtin:sphere-blend", None),
+                                       ("builtin:spheres-pbr-metal", "6 objects"),
+                                       ("builtin:torus-phong", "a non-convex object")])
+def test_the_quadrature_says_where_it_is_not_the_reference(name, why):
+    """Exact for one convex object (nothing shadows or reflects anything); otherwise it says so, naming why."""
+    reason = quadrature.inexact_for(scenes.load(name))
+    assert (reason is None) if why is None else (why in reason and "occlusion" in reason)
+
+
+def test_the_cli_warns_when_it_renders_a_scene_it_is_not_exact_for(tmp_path, capsys):
+    sets = ["--set", "camera.width=16", "--set", "camera.height=16"]
+    assert cli.main(["render", "builtin:spheres-pbr-metal", "--renderer", "quadrature", "-o",
+                     str(tmp_path / "q.exr"), *sets]) == 0
+    assert "warning: spheres-pbr-metal: the quadrature ignores occlusion" in capsys.readouterr().err
+    assert cli.main(["render", "builtin:sphere-diffuse", "--renderer", "quadrature", "-o",
+                     str(tmp_path / "d.exr"), *sets]) == 0
+    assert "warning" not in capsys.readouterr().err
