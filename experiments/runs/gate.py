@@ -198,8 +198,9 @@ def unresolvable(min_psnr: float | None, floor: float | None, spp: int | None) -
         return None
     need = f"; reference.spp = {spp_for_floor(floor, spp, min_psnr)} would resolve it" if spp else ""
     return (f"min_psnr {min_psnr:g} dB is above the reference's noise floor {floor:.2f} dB"
-            + (f" at {spp} spp" if spp else "") + " (no image can score above the floor; the floor rises "
-            f"3 dB per doubling of spp){need}, or lower min_psnr")
+            + (f" at {spp} spp" if spp else "") + " (an error-free image scores about the floor against this "
+            "reference's own noise, so a score above it comes from sharing that noise, as a copy of the reference "
+            f"does, not from accuracy; the floor rises 3 dB per doubling of spp){need}, or lower min_psnr")
 
 
 # --------------------------------------------------------------------------- loading and measuring
