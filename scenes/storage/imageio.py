@@ -36,7 +36,8 @@ def check_size(path: Path, width: int, height: int, max_pixels: int | None = Non
 
 
 def read_exr(path: Path, max_pixels: int | None = None) -> np.ndarray:
-    """Read the R, G, B channels by name (any order, half or float; alpha and others ignored), or a
+    """Read the R, G, B channels by name (any order, half or float; alpha and other channels, integer AOVs
+    included, ignored), or a
     luminance channel Y as grey. Anything else is refused, naming what the file holds: an
     alpha-only file is no white map, a crop of a larger display window no whole equirect map, and
     several layers or parts are no choice to make silently."""
@@ -82,26 +83,32 @@ def _exr_colour_planes(path: Path, channels: dict[str, np.ndarray]) -> list[np.n
         layer, _, short = name.rpartition(".")
         layers.setdefault(layer, {})[short.upper()] = px
     held = ", ".join(f"{n} ({_CHANNEL_KINDS.get(n.rpartition('.')[2].upper(), 'unknown')})" for n in sorted(channels))
-    for name, px in channels.items():
-        if px.dtype.kind not in "f":
-            raise EnvMapError(f"{path}: channel {name} holds {px.dtype.name} integers, not radiance "
-                              "(an environment map has half or float R, G, B channels)")
+
+    def radiance(layer: str, names: str) -> list[np.ndarray]:
+        # only the planes read must hold radiance: an integer AOV beside them (an object id) is ignored
+        for c in names:
+            if layers[layer][c].dtype.kind != "f":
+                full = f"{layer}.{c}" if layer else c
+                raise EnvMapError(f"{path}: channel {full} holds {layers[layer][c].dtype.name} integers, not "
+                                  "radiance: the R, G, B (or Y) channels read must be half or float")
+        return [layers[layer][c] for c in names]
+
     rgb = [layer for layer, chans in layers.items() if all(c in chans for c in "RGB")]
     if "" in rgb:
         rgb = [""]
     if len(rgb) > 1:
-        raise EnvMapError(f"{path}: several RGB layers ({', '.join(sorted(rgb))}); an environment map has one: "
-                          "save the layer you mean on its own")
+        raise EnvMapError(f"{path}: several RGB layers ({', '.join(sorted(rgb))}) and none unnamed; iblcheck reads "
+                          "one image: save the layer you mean on its own, or as the unnamed R, G, B")
     if rgb:
-        return [layers[rgb[0]][c] for c in "RGB"]
+        return radiance(rgb[0], "RGB")
     grey = [layer for layer, chans in layers.items() if "Y" in chans]
     if len(grey) == 1 and not ({"RY", "BY"} & set(layers[grey[0]])):
-        y = layers[grey[0]]["Y"]
+        y = radiance(grey[0], "Y")[0]
         return [y, y, y]
     if grey:
         raise EnvMapError(f"{path}: a luminance/chroma OpenEXR file (channels {held}); save it as RGB")
-    raise EnvMapError(f"{path}: holds no colour radiance: its channels are {held}; an environment map needs "
-                      "R, G and B channels (or one luminance channel Y)")
+    raise EnvMapError(f"{path}: holds no colour radiance: its channels are {held}; iblcheck reads R, G and B "
+                      "channels (or one luminance channel Y)")
 
 
 def read_exr_alpha(path: Path) -> np.ndarray | None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import OpenEXR
 import pytest
 
 from scenes import EnvMapError
@@ -22,8 +23,6 @@ def test_exr_float_round_trip_is_exact(tmp_path, hdr_image):
 
 
 def test_half_exr_with_bgr_channel_order(tmp_path, hdr_image):
-    import OpenEXR
-
     half = hdr_image.astype(np.float16)
     channels = {"B": half[..., 2].copy(), "G": half[..., 1].copy(), "R": half[..., 0].copy(),
                 "A": np.ones(half.shape[:2], np.float16)}
@@ -32,6 +31,32 @@ def test_half_exr_with_bgr_channel_order(tmp_path, hdr_image):
     out = envmap.read(tmp_path / "bgr.exr")
     assert out.dtype == np.float32
     np.testing.assert_array_equal(out, half.astype(np.float32))  # R stays R though stored last
+
+
+def _write_channels(path, channels: dict) -> None:
+    with OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, channels) as f:
+        f.write(str(path))
+
+
+def test_an_integer_aov_beside_rgb_is_ignored_and_integer_colour_refused(tmp_path, hdr_image):
+    """An engine's EXR may carry an object-id AOV (uint32) beside its beauty R, G, B: the colour is read,
+    the AOV ignored; an integer plane among the ones read is refused, named."""
+    planes = {c: hdr_image[..., i].copy() for i, c in enumerate("RGB")}
+    ids = np.arange(hdr_image.shape[0] * hdr_image.shape[1], dtype=np.uint32).reshape(hdr_image.shape[:2])
+    _write_channels(tmp_path / "aov.exr", {**planes, "objectId": ids})
+    np.testing.assert_array_equal(envmap.read(tmp_path / "aov.exr"), hdr_image)
+    _write_channels(tmp_path / "intr.exr", {**planes, "R": ids})
+    with pytest.raises(EnvMapError, match=r"intr.exr: channel R holds uint32 integers, not radiance"):
+        envmap.read(tmp_path / "intr.exr")
+
+
+def test_two_named_layers_are_no_silent_choice(tmp_path, hdr_image):
+    planes = {f"{layer}.{c}": hdr_image[..., i].copy() for layer in ("beauty", "albedo") for i, c in enumerate("RGB")}
+    _write_channels(tmp_path / "two.exr", planes)
+    with pytest.raises(EnvMapError, match=r"several RGB layers \(albedo, beauty\) and none unnamed"):
+        envmap.read(tmp_path / "two.exr")
+    _write_channels(tmp_path / "three.exr", {**planes, **{c: hdr_image[..., i].copy() for i, c in enumerate("RGB")}})
+    np.testing.assert_array_equal(envmap.read(tmp_path / "three.exr"), hdr_image)  # the unnamed layer is read
 
 
 @pytest.mark.parametrize("rle", [True, False], ids=["rle", "flat"])
