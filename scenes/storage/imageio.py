@@ -37,9 +37,8 @@ def check_size(path: Path, width: int, height: int, max_pixels: int | None = Non
 
 def read_exr(path: Path, max_pixels: int | None = None) -> np.ndarray:
     """Read the R, G, B channels by name (any order, half or float; alpha and other channels, integer AOVs
-    included, ignored), or a
-    luminance channel Y as grey. Anything else is refused, naming what the file holds: an
-    alpha-only file is no white map, a crop of a larger display window no whole equirect map, and
+    included, ignored), or a luminance channel Y as grey. Anything else is refused, naming what the file
+    holds: an alpha-only file is no white map, a crop of a larger display window no whole equirect map, and
     several layers or parts are no choice to make silently."""
     try:
         with OpenEXR.File(str(path), header_only=True) as f:
