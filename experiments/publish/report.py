@@ -145,7 +145,7 @@ def env_name(env: str) -> str:
 
 def table_cells(r: ResultRow) -> list[str]:
     ms = r.realtime_ms
-    return [r.scene, r.technique_label, str(r.face_size), r.material, fmt(r.exponent, "g"), fmt(r.f0, "g"),
+    return [r.scene, r.technique_label, str(r.face_size or "-"), r.material, fmt(r.exponent, "g"), fmt(r.f0, "g"),
             env_name(r.env), fmt(r.psnr, ".2f"), fmt(r.psnr_unbiased, ".2f"), fmt(r.noise_floor_psnr, ".2f"),
             fmt(r.ssim, ".4f"), fmt(r.flip, ".4f"), fmt(r.rel_mse, ".3g"), fmt(ms.get("filter"), ".2f"),
             fmt(ms.get("draw"), ".2f"), fmt(ms.get("total"), ".2f"), fmt(ms.get("precompute"), ".1f"),
@@ -155,7 +155,8 @@ def table_cells(r: ResultRow) -> list[str]:
 def label(r: ResultRow) -> str:
     mats = "; ".join(" ".join(f"{k}={fmt(v, 'g') if isinstance(v, float) else v}" for k, v in m.items()
                               if k not in ("kd", "ks") and not (k == "two_sided" and not v)) for m in r.materials)
-    return f"{r.scene}: {r.technique_label}, face {r.face_size}, {mats}, {env_name(r.env)}"
+    face = f", face {r.face_size}" if r.face_size else ""
+    return f"{r.scene}: {r.technique_label}{face}, {mats}, {env_name(r.env)}"
 
 
 def _inline(path: Path) -> str:
@@ -252,14 +253,16 @@ def summary_markdown(title: str, rows: list[ResultRow], sections: list[Section],
     if rows:
         best = {}
         for r in rows:
-            key = (r.scene, r.material, r.exponent, r.f0, env_name(r.env))
+            # each engine image is its own row: the best of several engines' images is no configuration to pick
+            image = r.technique_label if r.techniques.get("renderer") == "image" else None
+            key = (r.scene, r.material, r.exponent, r.f0, env_name(r.env), image)
             if r.psnr is not None and (key not in best or r.psnr > best[key].psnr):
                 best[key] = r
         lines += ["## Best configuration per scene and material", "",
                   "| scene | material | N | f0 | env | techniques | face | PSNR dB | floor dB | SSIM | total ms |",
                   "|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|"]
-        for (name, mat, n, f0, env), r in sorted(best.items(), key=str):
-            cells = [name, mat, fmt(n, "g"), fmt(f0, "g"), env, r.technique_label, r.face_size, fmt(r.psnr, ".2f"),
+        for (name, mat, n, f0, env, _), r in sorted(best.items(), key=str):
+            cells = [name, mat, fmt(n, "g"), fmt(f0, "g"), env, r.technique_label, r.face_size or "-", fmt(r.psnr, ".2f"),
                      fmt(r.noise_floor_psnr, ".2f"), fmt(r.ssim, ".4f"), fmt(r.realtime_ms.get("total"), ".2f")]
             lines.append("| " + " | ".join(md_cell(c) for c in cells) + " |")
         lines.append("")

@@ -103,6 +103,8 @@ def test_ci_gates_its_renderer_against_a_baseline(tmp_path, capsys, cache):
     assert len(rows) == 1 and rows[0]["techniques"]["renderer"] == "image" and rows[0]["techniques"]["label"] == "mine"
     assert rows[0]["psnr"] == pytest.approx(rec[f"{SCENE}#mine"]["metrics"]["psnr"], abs=0)
     assert np.isfinite(rows[0]["psnr"])
+    summary = (out_dir / "summary.md").read_text()
+    assert "| image mine | \\- |" in summary and "None" not in summary  # named by its label, no cube face
 
 
 @pytest.mark.parametrize("flag, value", [("--face-sizes", "8,16"), ("--axis", "realtime.glossy=box"),
