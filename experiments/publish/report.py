@@ -262,8 +262,9 @@ def summary_markdown(title: str, rows: list[ResultRow], sections: list[Section],
                   "| scene | material | N | f0 | env | techniques | face | PSNR dB | floor dB | SSIM | total ms |",
                   "|---|---|---:|---:|---|---|---:|---:|---:|---:|---:|"]
         for (name, mat, n, f0, env, _), r in sorted(best.items(), key=str):
-            cells = [name, mat, fmt(n, "g"), fmt(f0, "g"), env, r.technique_label, r.face_size or "-", fmt(r.psnr, ".2f"),
-                     fmt(r.noise_floor_psnr, ".2f"), fmt(r.ssim, ".4f"), fmt(r.realtime_ms.get("total"), ".2f")]
+            cells = [name, mat, fmt(n, "g"), fmt(f0, "g"), env, r.technique_label, r.face_size or "-",
+                     fmt(r.psnr, ".2f"), fmt(r.noise_floor_psnr, ".2f"), fmt(r.ssim, ".4f"),
+                     fmt(r.realtime_ms.get("total"), ".2f")]
             lines.append("| " + " | ".join(md_cell(c) for c in cells) + " |")
         lines.append("")
     lines += [f"![{p['alt']}]({p['file']})" for p in plot_list]
