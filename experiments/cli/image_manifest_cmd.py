@@ -7,7 +7,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from experiments.cli.inputs import UsageError, gate_options, parse_sets
+from experiments.cli.inputs import UsageError, gate_options, gate_outputs_are_no_inputs, parse_sets
 from experiments.measure.results import RESULTS, folder_lock, store_in
 from experiments.publish import outputs
 from experiments.publish.report import build as build_report
@@ -36,6 +36,7 @@ def gate_images(args: argparse.Namespace) -> int:
         junit = plan.file(args.junit, "--junit") if args.junit else None
         md = plan.file(args.markdown, "--markdown") if args.markdown else None
         record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
+        gate_outputs_are_no_inputs(args, loaded, junit, md, record, manifest)
         with outputs.progress("gate", 4 * len(loaded)) as step:
             results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline))
         for line in gate.warning_lines(results, baseline):

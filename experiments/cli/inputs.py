@@ -2,10 +2,16 @@
 
 from __future__ import annotations
 
+from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
-from experiments.publish.outputs import UsageError  # defined below the CLI: the output checks raise it
+from experiments.publish.outputs import (
+    UsageError,  # defined below the CLI: the output checks raise it
+    same_file,
+)
 from scenes.exchange import scene_spec
+from scenes.geometry.meshes import BUILTIN_MESHES
 from scenes.model.scene import parse_literal
 
 
@@ -79,3 +85,42 @@ def gate_options(args) -> tuple[dict, dict]:
     if given and not args.baseline:
         raise UsageError(f"{', '.join(given)}: only with --baseline FILE")
     return cli, tolerances
+
+
+def scene_inputs(scene) -> list[str]:
+    """The files a scene reads (its own file, its environment map, its mesh files): no output may overwrite
+    them."""
+    files = [] if scene.path.startswith("builtin:") else [scene.path]
+    if not scene.environment.builtin_name:
+        files.append(scene.environment.map)
+    return files + [o.shape for o in scene.objects if o.shape not in BUILTIN_MESHES]
+
+
+def refuse_overwriting(outputs: Iterable[tuple[Path | None, str]], inputs: Iterable[str | Path]) -> None:
+    """UsageError when an output (path, flag) is one of the command's input files or another output: checked
+    before any work, so that a mistyped `--junit scene.toml` never replaces the scene."""
+    inputs = list(inputs)
+    seen: list[tuple[Path, str]] = []
+    for path, flag in outputs:
+        if path is None:
+            continue
+        for source in inputs:
+            if same_file(path, source):
+                raise UsageError(f"{flag} {path}: would overwrite {source}, an input of this command")
+        for other, other_flag in seen:
+            if path.resolve() == other.resolve():
+                raise UsageError(f"{flag} {path}: the same file as {other_flag}; give each output its own file")
+        seen.append((path, flag))
+
+
+def gate_outputs_are_no_inputs(args, loaded: list, junit, md, record,
+                               manifest: str | None = None) -> None:
+    """The gate's files (--junit, --markdown, --write-baseline) overwrite none of its inputs: the scenes'
+    files, maps and meshes, an engine image, the manifest, and (except for --write-baseline, which may
+    update it) the baseline read."""
+    inputs = [f for p in loaded for f in scene_inputs(p.scene)]
+    inputs += [p.image.path for p in loaded if p.image is not None] + ([manifest] if manifest else [])
+    baseline = [args.baseline] if args.baseline else []
+    refuse_overwriting([(junit, "--junit"), (md, "--markdown")], inputs + baseline)
+    refuse_overwriting([(record, "--write-baseline")], inputs)
+    refuse_overwriting([(junit, "--junit"), (md, "--markdown"), (record, "--write-baseline")], [])

@@ -34,7 +34,15 @@ from experiments.cli import (
     render_cmd,
     voxel_storage_cmd,
 )
-from experiments.cli.inputs import UsageError, gate_options, load_scene, parse_axis, parse_list, parse_sets
+from experiments.cli.inputs import (
+    UsageError,
+    gate_options,
+    gate_outputs_are_no_inputs,
+    load_scene,
+    parse_axis,
+    parse_list,
+    parse_sets,
+)
 from experiments.measure.results import folder_lock, store_in
 from experiments.paper import registry
 from experiments.paper import suite as paper
@@ -327,6 +335,7 @@ def _cmd_gate(args: argparse.Namespace) -> int:
         junit = plan.file(args.junit, "--junit") if args.junit else None
         md = plan.file(args.markdown, "--markdown") if args.markdown else None
         record = plan.file(args.write_baseline, "--write-baseline") if args.write_baseline else None
+        gate_outputs_are_no_inputs(args, loaded, junit, md, record)
         with _report_folder(plan, args.report) as folder:
             with outputs.progress("gate", 4 * len(loaded)) as step:
                 results = gate.compare_all(loaded, baseline, tolerances, step, noise=bool(args.write_baseline),

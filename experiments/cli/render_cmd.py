@@ -19,11 +19,10 @@ import numpy as np
 import groundtruth
 import realtime
 from engines import command as engine_command
-from experiments.cli.inputs import UsageError, load_scene
+from experiments.cli.inputs import UsageError, load_scene, scene_inputs
 from experiments.measure import metrics
 from experiments.publish import images, outputs
 from groundtruth.exact import quadrature
-from scenes.geometry.meshes import BUILTIN_MESHES
 from scenes.model.render import Render
 from scenes.storage import imageio
 
@@ -51,20 +50,12 @@ def default_out(scene, renderer: str) -> Path:
     return Path(f"{outputs.slug(scene.name)}-{renderer}.exr")
 
 
-def inputs_of(scene) -> list[str]:
-    """The files a scene reads: an output must not overwrite them."""
-    files = [] if scene.path.startswith("builtin:") else [scene.path]
-    if not scene.environment.builtin_name:
-        files.append(scene.environment.map)
-    return files + [o.shape for o in scene.objects if o.shape not in BUILTIN_MESHES]
-
-
 def check_out(plan: outputs.Outputs, out: Path, scene) -> None:
     if out.suffix.lower() != ".exr":
         raise UsageError(f"-o {out}: the output must be an .exr file")
     for path in (out, out.with_suffix(".png")):
         plan.file(path, "-o")
-        for source in inputs_of(scene):
+        for source in scene_inputs(scene):
             if outputs.same_file(path, source):
                 raise UsageError(f"-o {out}: would overwrite {path}, an input of the scene")
 

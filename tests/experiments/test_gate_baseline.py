@@ -20,6 +20,7 @@ import pytest
 from experiments.cli import main as cli
 from experiments.publish import outputs
 from experiments.runs import gate, gate_statistics
+from scenes.environment import envmap
 
 TINY = ["camera.width=48", "camera.height=48", "reference.spp=16", "realtime.timing_frames=2",
         "realtime.warmup_frames=1"]
@@ -204,6 +205,33 @@ def test_bad_tolerance_options_are_usage_errors(capsys, args):
     assert cli.main(["gate", SCENE, *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error:") and len(err.strip().splitlines()) == 1
+
+
+@pytest.mark.parametrize("flag, target", [("--junit", "scene"), ("--markdown", "map"), ("--write-baseline", "scene"),
+                                          ("--junit", "baseline"), ("--markdown", "junit")])
+def test_no_output_overwrites_an_input_or_another_output(tmp_path, capsys, flag, target):
+    """A mistyped output path (the scene file, its environment map, the baseline read, another output) is
+    refused before anything is rendered, and the file is left as it was."""
+    envmap.write(tmp_path / "map.exr", np.full((8, 16, 3), 0.5, np.float32))
+    scene = tmp_path / "mine.toml"
+    scene.write_text('name = "mine"\n[environment]\nmap = "map.exr"\n[[objects]]\nshape = "sphere"\n'
+                     'material = { type = "diffuse", kd = [0.5, 0.5, 0.5] }\n')
+    (tmp_path / "base.json").write_text('{"format": "iblcheck-gate-baseline", "version": 1, "scenes": {}}')
+    (tmp_path / "junit.xml").write_text("<x/>")
+    files = {"scene": scene, "map": tmp_path / "map.exr", "baseline": tmp_path / "base.json",
+             "junit": tmp_path / "junit.xml"}
+    before = {k: v.read_bytes() for k, v in files.items()}
+    args = ["gate", str(scene), "--min-psnr", "1", flag, str(files[target]), *sets()]
+    if target == "baseline":
+        args += ["--baseline", str(files["baseline"])]
+    if target == "junit":
+        args += ["--junit", str(files["junit"])]
+    code = cli.main(args)
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1, err
+    assert err[0].startswith(f"error: {flag} {files[target]}: ") and ("an input of this command" in err[0]
+                                                                     or "the same file as --junit" in err[0])
+    assert {k: v.read_bytes() for k, v in files.items()} == before
 
 
 # --------------------------------------------------------------------------- output
