@@ -17,8 +17,10 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import io
 import json
 import math
+import os
 import sys
 import traceback
 import warnings
@@ -64,7 +66,8 @@ DEFAULT_FACE_SIZES, DEFAULT_LOD_BIASES = "8,16,32,64", "-1,0,1,2"
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str):  # argparse's own errors: one line, exit 2
-        print(f"error: {one_line(message)}", file=sys.stderr)
+        hint = "; iblcheck --help lists the commands" if message.endswith("required: command") else ""
+        print(f"error: {one_line(message)}{hint}", file=sys.stderr)
         raise SystemExit(EXIT_BAD_INPUT)
 
 
@@ -104,6 +107,7 @@ def build_parser() -> argparse.ArgumentParser:
                 epilog="exit codes: 0 success, 1 a gate failed, 2 bad input or output path, 3 the machine lacks "
                        "something, 4 internal error (--debug shows the traceback), 130 interrupted")
     p.add_argument("--debug", action="store_true", help="on an internal error, print the traceback (any position)")
+    p.add_argument("--version", action="version", version=f"iblcheck {gate.iblcheck_version()}")
     sub = p.add_subparsers(dest="command", required=True, parser_class=_Parser)
 
     r = sub.add_parser("render", help="render one scene with one renderer, write EXR + PNG")
@@ -402,7 +406,54 @@ def _error(text: str) -> None:
     print(f"error: {one_line(text)}", file=sys.stderr)
 
 
+class ClosedPipeGuard:
+    """sys.stdout for one command: once its reader has gone (`iblcheck gate ... | head -1`), further output
+    is dropped instead of raising BrokenPipeError, so that the command still writes its files and ends with
+    its own exit code (a gate's pass or fail). The file descriptor is pointed at /dev/null then, so that the
+    interpreter's last flush at exit does not fail either."""
+
+    def __init__(self, stream) -> None:
+        self.stream = stream
+        self.reader_gone = False
+
+    def _gone(self) -> None:
+        self.reader_gone = True
+        with contextlib.suppress(OSError, ValueError, AttributeError, io.UnsupportedOperation):
+            devnull = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(devnull, self.stream.fileno())
+            os.close(devnull)
+
+    def write(self, text: str) -> int:
+        if not self.reader_gone:
+            try:
+                return self.stream.write(text)
+            except BrokenPipeError:
+                self._gone()
+        return len(text)
+
+    def flush(self) -> None:
+        if not self.reader_gone:
+            try:
+                self.stream.flush()
+            except BrokenPipeError:
+                self._gone()
+
+    def __getattr__(self, name: str):
+        return getattr(self.stream, name)
+
+
 def main(argv: list[str] | None = None) -> int:
+    stdout = sys.stdout
+    sys.stdout = ClosedPipeGuard(stdout)
+    try:
+        return _main(argv)
+    finally:
+        with contextlib.suppress(BrokenPipeError):
+            sys.stdout.flush()
+        sys.stdout = stdout
+
+
+def _main(argv: list[str] | None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     debug = "--debug" in argv
     argv = [a for a in argv if a != "--debug"]

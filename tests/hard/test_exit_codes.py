@@ -319,3 +319,33 @@ def test_ctrl_c_exits_130_and_the_sweep_resumes(tmp_path):
     assert done.returncode == 0, done.stderr
     ids = [json.loads(x)["id"] for x in results.read_text().splitlines()]
     assert len(ids) == len(set(ids)) == 32 and ids[: len(first)] == first
+
+
+class _GoneReader:
+    """A stdout whose reader has gone: every write raises BrokenPipeError, as `| head -n 0` makes it."""
+
+    def write(self, text: str) -> int:
+        raise BrokenPipeError(32, "Broken pipe")
+
+    def flush(self) -> None:
+        raise BrokenPipeError(32, "Broken pipe")
+
+
+def test_a_closed_stdout_pipe_is_no_internal_error(tmp_path, monkeypatch, capsys):
+    """`iblcheck render ... | head -n 0`: the output is dropped, the files are written and the command ends
+    with its own exit code (was 4, an internal error, before the files were written)."""
+    monkeypatch.setattr(sys, "stdout", _GoneReader())
+    out = tmp_path / "q.exr"
+    code = cli.main(["render", "builtin:sphere-diffuse", "--renderer", "quadrature", "-o", str(out),
+                     "--set", "camera.width=16", "--set", "camera.height=16"])
+    assert code == 0 and out.is_file() and out.with_suffix(".png").is_file()
+    assert "error" not in capsys.readouterr().err
+    assert isinstance(sys.stdout, _GoneReader)  # restored
+
+
+def test_no_command_names_where_the_commands_are_and_version_answers(capsys):
+    assert cli.main([]) == 2
+    assert capsys.readouterr().err.strip() == ("error: the following arguments are required: command; "
+                                               "iblcheck --help lists the commands")
+    assert cli.main(["--version"]) == 0
+    assert capsys.readouterr().out.startswith("iblcheck ")
