@@ -251,13 +251,19 @@ class Scene:
 
     def with_overrides(self, overrides: dict[str, Any]) -> Scene:
         """A new scene with dotted keys replaced, re-validated. Paths are taken as given or
-        relative to the working directory."""
+        relative to the working directory. A new `environment.map` drops the old map's `environment.params`
+        (they are that map's: builtin:sky's sun is no parameter of builtin:ennis) unless the overrides give
+        params of their own."""
         tree = copy.deepcopy(self.source)
         for key, value in overrides.items():
             if isinstance(value, str):
                 value = parse_literal(value)
             if key in ("environment.map",) or key.endswith(".shape"):
                 value = _cwd_path(value)
+            if key == "environment.map" and isinstance(tree.get("environment"), dict):
+                if value != tree["environment"].get("map") and not any(
+                        k.startswith("environment.params") for k in overrides):
+                    tree["environment"].pop("params", None)
             _set_dotted(tree, key.split("."), value, key, self.path)
         return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
 

@@ -192,3 +192,15 @@ def test_every_builtin_scene_loads():
 def test_a_packaged_model_has_no_resolution_to_choose(shape):
     with pytest.raises(SceneError, match=rf"objects\[0\].resolution = 8 with objects\[0\].shape = '{shape}'"):
         scenes.load("builtin:sphere-diffuse").with_overrides({"objects.0.shape": shape, "objects.0.resolution": 8})
+
+
+def test_a_new_environment_map_drops_the_old_maps_params():
+    """builtin:sphere-sky's params (the sun) are builtin:sky's: swept onto another map they would be refused
+    as unknown, so a new map starts without them; the same map keeps them, and params given with it are used."""
+    sky = scenes.load("builtin:sphere-sky")
+    assert sky.environment.params  # the precondition: the scene sets sky parameters
+    other = sky.with_overrides({"environment.map": "builtin:ennis"})
+    assert other.environment.map == "builtin:ennis" and other.environment.params == ()
+    assert sky.with_overrides({"environment.map": "builtin:sky"}).environment.params == sky.environment.params
+    with pytest.raises(SceneError, match="environment.params.sun: unknown parameter for builtin:ennis"):
+        sky.with_overrides({"environment.map": "builtin:ennis", "environment.params.sun": 2.0})
