@@ -196,7 +196,12 @@ def unresolvable(min_psnr: float | None, floor: float | None, spp: int | None) -
     the floor would reach the threshold (`spp_for_floor`)."""
     if min_psnr is None or floor is None or floor >= metrics.PSNR_CAP or min_psnr <= floor:
         return None
-    need = f"; reference.spp = {spp_for_floor(floor, spp, min_psnr)} would resolve it" if spp else ""
+    need = ""
+    if spp:
+        more = spp_for_floor(floor, spp, min_psnr)
+        reach = floor + metrics.TWO_RENDERS_DB * math.log2(more / spp)
+        need = (f"; reference.spp = {more} would resolve it" if reach >= min_psnr - 1e-9 else
+                f"; not even reference.spp = {more}, the most allowed, would (its floor about {reach:.0f} dB)")
     return (f"min_psnr {min_psnr:g} dB is above the reference's noise floor {floor:.2f} dB"
             + (f" at {spp} spp" if spp else "") + " (an error-free image scores about the floor against this "
             "reference's own noise, so a score above it comes from sharing that noise, as a copy of the reference "

@@ -131,6 +131,14 @@ def test_spp_for_floor_by_hand():
     assert 21.3 + 10 * math.log10(spp / 16) >= 33.3 > 21.3 + 10 * math.log10(spp / 32)
 
 
+def test_a_threshold_no_allowed_spp_reaches_says_so():
+    """33.1 dB at 64 spp rises 10 log10(2^24 / 64) = 54.2 dB at most, to 87.3 dB: 99 dB is out of reach."""
+    why = gate.unresolvable(99.0, 33.1, 64)
+    assert f"not even reference.spp = {1 << 24}, the most allowed, would (its floor about 87 dB)" in why
+    assert "would resolve it" not in why
+    assert "reference.spp = 128 would resolve it" in gate.unresolvable(35.0, 33.1, 64)  # the control
+
+
 @pytest.mark.parametrize("psnr", [29.7, 29.95, None])
 def test_a_threshold_above_the_floor_fails_naming_floor_and_spp(psnr):
     m = {"psnr": psnr, "noise_floor_psnr": 29.9, "reference_spp": 64}
