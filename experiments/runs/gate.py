@@ -537,8 +537,28 @@ def record_key(record: dict) -> str:
     return record.get("key") or scene_key(record["spec"])
 
 
-def _reject_constant(name: str):
-    raise ValueError(f"holds {name}, which is not a number JSON allows")
+class _Constant(str):
+    """NaN, Infinity or -Infinity where the file holds one: parsed as a marker, so that the error can name
+    the field (`_find_constant`) instead of only the file."""
+
+
+def _find_constant(node, where: str = "") -> tuple[str, str] | None:
+    """(field, constant) of the first _Constant in a parsed tree, fields as the checks name them:
+    scenes[KEY].metrics.psnr."""
+    if isinstance(node, _Constant):
+        return where, str(node)
+    items = node.items() if isinstance(node, dict) else enumerate(node) if isinstance(node, list) else ()
+    for key, child in items:
+        if where == "scenes" and isinstance(node, dict):
+            sub = f"scenes[{key}]"
+        elif isinstance(key, int):
+            sub = f"{where}[{key}]"
+        else:
+            sub = f"{where}.{key}" if where else str(key)
+        found = _find_constant(child, sub)
+        if found:
+            return found
+    return None
 
 
 def read_baseline(path: str | Path) -> dict:
@@ -547,16 +567,22 @@ def read_baseline(path: str | Path) -> dict:
     path = Path(path)
     data = read_input(path, "baseline file", MAX_BASELINE_BYTES, BaselineError)
     try:
-        tree = json.loads(data.decode("utf-8"), parse_constant=_reject_constant)
+        tree = json.loads(data.decode("utf-8"), parse_constant=_Constant)
     except UnicodeDecodeError as exc:
         raise BaselineError(f"{path}: baseline file is not UTF-8 text (byte {exc.start})") from None
     except json.JSONDecodeError as exc:
         raise BaselineError(f"{path}: baseline file is not valid JSON (line {exc.lineno}, column {exc.colno}: "
                             f"{exc.msg})") from None
-    except ValueError as exc:  # NaN / Infinity (parse_constant) or a number too deep
+    except ValueError as exc:  # a number too long to convert
         raise BaselineError(f"{path}: baseline file {exc}") from None
     except RecursionError:
         raise BaselineError(f"{path}: baseline file nests too deep") from None
+    try:
+        constant = _find_constant(tree)
+    except RecursionError:
+        raise BaselineError(f"{path}: baseline file nests too deep") from None
+    if constant:
+        raise BaselineError(f"{path}: {constant[0] or 'the file'} = {constant[1]}, which is not a number JSON allows")
     if not isinstance(tree, dict) or tree.get("format") != FORMAT:
         raise BaselineError(f"{path}: not an iblcheck gate baseline (no \"format\": \"{FORMAT}\"); write one with "
                             "`iblcheck gate SCENES --write-baseline FILE`")

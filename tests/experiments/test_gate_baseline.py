@@ -163,8 +163,10 @@ def good_file() -> dict:
 
 @pytest.mark.parametrize("mutate, expected", [
     (lambda t: "{not json", "not valid JSON"),
-    (lambda t: json.dumps(t).replace("30.0", "NaN"), "NaN"),
-    (lambda t: json.dumps(t).replace("30.0", "Infinity"), "Infinity"),
+    (lambda t: json.dumps(t).replace("30.0", "NaN"), f"scenes[{SCENE}].metrics.psnr = NaN, which is not a number"),
+    (lambda t: json.dumps(t).replace("30.0", "Infinity"), f"scenes[{SCENE}].metrics.psnr = Infinity"),
+    (lambda t: json.dumps({**t, "extra": [1, -1e999]}).replace("-1e999", "-Infinity").replace("-inf", "-Infinity"),
+     "extra[1] = -Infinity"),
     (lambda t: {**t, "format": "something"}, "not an iblcheck gate baseline"),
     (lambda t: {**t, "version": 99}, "format version 99"),
     (lambda t: {**t, "scenes": []}, '"scenes" must be an object'),
