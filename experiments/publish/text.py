@@ -105,6 +105,11 @@ def html_text(value: object) -> object:
     return visible(value, keep="\n\t") if isinstance(value, str) else value
 
 
+#: the footnote of a PSNR marked `*` (comparison.compare's `at_noise_floor`)
+AT_FLOOR_NOTE = ("* at the noise floor: within 1 dB of the reference's own noise, where a better image cannot "
+                 "score higher; more reference.spp raises the floor")
+
+
 def comparison_table(rows: list[dict]) -> str:
     """A plain-text table of `experiments.measure.comparison.compare` dicts for humans (`iblcheck compare`);
     every cell goes through `one_line`.
@@ -112,7 +117,8 @@ def comparison_table(rows: list[dict]) -> str:
     Every per-frame timing key of the rows' `realtime_ms` has its column, so the frame time is the sum of
     the columns shown: filter, the chosen techniques' declared timing keys as they first appear (e.g.
     `lights`, `shadow`, `voxelize`, `mip`), draw, and the frame (`total`); a key a row lacks is `-`.
-    `precompute` (once per scene, not per frame) and `background` (no method's) are left out."""
+    `precompute` (once per scene, not per frame) and `background` (no method's) are left out. A PSNR at
+    the noise floor (`at_noise_floor`) is marked `*`, with AT_FLOOR_NOTE under the table."""
     seen = dict.fromkeys(k for row in rows for k in (row.get("realtime_ms") or {}))
     own = [k for k in seen if k not in ("filter", "draw", "total", "precompute", "background")]
     timings = [(f"{'frame' if k == 'total' else k} ms", ("realtime_ms", k), "{:.2f}")
@@ -128,9 +134,12 @@ def comparison_table(rows: list[dict]) -> str:
 
     cells = [[h for h, _, _ in cols]]
     for row in rows:
-        cells.append(["-" if get(row, k) is None else one_line(f.format(get(row, k)), 80) for _, k, f in cols])
+        cells.append(["-" if get(row, k) is None else one_line(f.format(get(row, k)), 80)
+                      + ("*" if k == "psnr" and row.get("at_noise_floor") else "") for _, k, f in cols])
     widths = [max(len(r[i]) for r in cells) for i in range(len(cols))]
     lines = ["  ".join(c.rjust(w) if i else c.ljust(w) for i, (c, w) in enumerate(zip(r, widths, strict=True)))
              for r in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))
+    if any(row.get("at_noise_floor") for row in rows):
+        lines.append(AT_FLOOR_NOTE)
     return "\n".join(lines)

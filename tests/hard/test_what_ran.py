@@ -17,6 +17,7 @@ import pytest
 import realtime
 import scenes
 from experiments.cli import main as cli
+from experiments.publish import text
 from experiments.publish.text import comparison_table
 from realtime.engine import technique
 from realtime.engine.frame import TechniqueNotRunWarning
@@ -173,6 +174,17 @@ def test_rows_with_different_techniques_share_one_table():
     assert a[a.index("1.00") + 1: a.index("1.00") + 3] == ["-", "-"]  # a has no VCT keys: dashes, not zeros
     assert "4.00" in b and "0.50" in b and "7.50" in b
     assert c[0] == "c" and set(c[1:]) == {"-"} and set(d[1:]) == {"-"}
+
+
+def test_a_psnr_at_the_noise_floor_is_marked_in_the_table():
+    """README: a score within 1 dB of the floor is reported as at the noise floor; the table says so where
+    the comparison says so (at_noise_floor), and only there."""
+    rows = [{"scene": "a", "psnr": 31.99, "noise_floor_psnr": 32.34, "at_noise_floor": True},
+            {"scene": "b", "psnr": 20.0, "noise_floor_psnr": 32.34, "at_noise_floor": False}]
+    lines = comparison_table(rows).splitlines()
+    assert lines[2].split()[:2] == ["a", "31.99*"] and lines[3].split()[:2] == ["b", "20.00"]
+    assert lines[-1] == text.AT_FLOOR_NOTE
+    assert text.AT_FLOOR_NOTE not in comparison_table(rows[1:])  # the control: no row at the floor, no note
 
 
 def test_the_paper_methods_table_is_unchanged_in_its_timing_columns():
