@@ -463,8 +463,23 @@ def _main(argv: list[str] | None) -> int:
     except SystemExit as exc:  # argparse: --help (0) or a usage error (2, already printed)
         return int(exc.code or 0)
     warnings.simplefilter("default")
-    warnings.showwarning = lambda msg, cat, *a, **k: print(f"warning: {one_line(msg)}", file=sys.stderr)
+    warnings.showwarning = _WarnOnce()
     return run_command(args, debug)
+
+
+class _WarnOnce:
+    """Python warnings as `warning:` lines on stderr, each distinct line once per command: a sweep's rows
+    each warn that the same scene lacks the same effect (each comparison's catch_warnings resets Python's own
+    once-per-place registry), which said once is said."""
+
+    def __init__(self) -> None:
+        self.said: set[str] = set()
+
+    def __call__(self, message, category, *args, **kwargs) -> None:
+        line = f"warning: {one_line(message)}"
+        if line not in self.said:
+            self.said.add(line)
+            print(line, file=sys.stderr)
 
 
 def _interrupted_note(args: argparse.Namespace) -> str:

@@ -349,3 +349,12 @@ def test_no_command_names_where_the_commands_are_and_version_answers(capsys):
                                                "iblcheck --help lists the commands")
     assert cli.main(["--version"]) == 0
     assert capsys.readouterr().out.startswith("iblcheck ")
+
+
+def test_a_warning_said_once_per_command(capsys):
+    """A sweep's rows repeat the same warning (each comparison's catch_warnings resets Python's registry):
+    each distinct line is printed once; a different one still is."""
+    show = cli._WarnOnce()
+    for text in ("a: lacks occlusion", "a: lacks occlusion", "b: lacks occlusion", "a: lacks occlusion"):
+        show(UserWarning(text), UserWarning, "f.py", 1)
+    assert capsys.readouterr().err.splitlines() == ["warning: a: lacks occlusion", "warning: b: lacks occlusion"]
