@@ -66,13 +66,16 @@ def split_top_level(text: str) -> list[str]:
 
 
 def parse_list(text: str | None, kind: type, flag: str) -> list | None:
-    """'8,16,32' -> [8, 16, 32]; None stays None."""
+    """'8,16,32' -> [8, 16, 32]; None stays None; an empty list is refused (an empty axis is no sweep)."""
     if text is None:
         return None
     try:
-        return [kind(x.strip()) for x in text.split(",") if x.strip()]
+        values = [kind(x.strip()) for x in text.split(",") if x.strip()]
     except ValueError:
         raise UsageError(f"{flag} {text!r}: expected a comma-separated list of {kind.__name__} values") from None
+    if not values:
+        raise UsageError(f"{flag} {text!r}: expected at least one {kind.__name__} value")
+    return values
 
 
 def gate_options(args) -> tuple[dict, dict]:

@@ -314,8 +314,10 @@ def _cmd_sweep(args: argparse.Namespace) -> int:
         return image_manifest_cmd.sweep_images(args)
     if args.technique_axes:
         _warn_broken_plugins()
-    axes = sweep.Axes(face_sizes=parse_list(args.face_sizes or DEFAULT_FACE_SIZES, int, "--face-sizes"),
-                      lod_biases=parse_list(args.lod_biases or DEFAULT_LOD_BIASES, float, "--lod-biases"),
+    faces = DEFAULT_FACE_SIZES if args.face_sizes is None else args.face_sizes
+    biases = DEFAULT_LOD_BIASES if args.lod_biases is None else args.lod_biases
+    axes = sweep.Axes(face_sizes=parse_list(faces, int, "--face-sizes"),
+                      lod_biases=parse_list(biases, float, "--lod-biases"),
                       exponents=parse_list(args.exponents, float, "--exponents"),
                       f0s=parse_list(args.f0s, float, "--f0s"), envs=parse_list(args.envs, str, "--envs"),
                       lod_mappings=parse_list(args.lod_mappings, str, "--lod-mappings"),

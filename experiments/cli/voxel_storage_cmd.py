@@ -66,9 +66,8 @@ def check_options(args: argparse.Namespace) -> list[int]:
         raise UsageError(f"--cascades {args.cascades}: must be 1 .. {MAX_CASCADES}")
     if args.repeats < 1:
         raise UsageError(f"--repeats {args.repeats}: must be at least 1")
-    resolutions = parse_list(args.resolutions or DEFAULT_RESOLUTIONS, int, "--resolutions")
-    if not resolutions:
-        raise UsageError(f"--resolutions {args.resolutions!r}: name at least one resolution")
+    resolutions = parse_list(DEFAULT_RESOLUTIONS if args.resolutions is None else args.resolutions, int,
+                             "--resolutions")
     for r in resolutions:
         # a power of two (the octrees), each cascade at least 2 voxels wide (r >= 2^cascades)
         if r < 2 ** args.cascades or r > MAX_RESOLUTION or r & (r - 1):

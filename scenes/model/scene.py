@@ -265,7 +265,15 @@ class Scene:
                         k.startswith("environment.params") for k in overrides):
                     tree["environment"].pop("params", None)
             _set_dotted(tree, key.split("."), value, key, self.path)
-        return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
+        try:
+            return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
+        except SceneError as exc:
+            # an unknown key that only an override names is the override's, not the file's
+            for key in overrides:
+                own = f"{self.path}: {key}: unknown key"
+                if str(exc).startswith(own):
+                    raise SceneError(f"{self.path}: override {key}: unknown key{str(exc)[len(own):]}") from None
+            raise
 
     def _base_dir(self) -> Path:
         return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent

@@ -358,3 +358,12 @@ def test_a_warning_said_once_per_command(capsys):
     for text in ("a: lacks occlusion", "a: lacks occlusion", "b: lacks occlusion", "a: lacks occlusion"):
         show(UserWarning(text), UserWarning, "f.py", 1)
     assert capsys.readouterr().err.splitlines() == ["warning: a: lacks occlusion", "warning: b: lacks occlusion"]
+
+
+@pytest.mark.parametrize("args", [["sweep", "builtin:sphere-diffuse", "--face-sizes", ""],
+                                  ["sweep", "builtin:sphere-diffuse", "--lod-biases", " , "],
+                                  ["voxel-storage", "builtin:sphere-diffuse", "--resolutions", ""]])
+def test_an_empty_list_option_is_refused_not_read_as_its_default(tmp_path, capsys, args):
+    assert cli.main([*args, "--out", str(tmp_path / "o")]) == 2
+    assert "expected at least one" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()

@@ -204,3 +204,12 @@ def test_a_new_environment_map_drops_the_old_maps_params():
     assert sky.with_overrides({"environment.map": "builtin:sky"}).environment.params == sky.environment.params
     with pytest.raises(SceneError, match="environment.params.sun: unknown parameter for builtin:ennis"):
         sky.with_overrides({"environment.map": "builtin:ennis", "environment.params.sun": 2.0})
+
+
+def test_an_unknown_key_only_an_override_names_is_blamed_on_the_override(tmp_path):
+    """`--set camera.fovv=3` on a good file: the file holds no such key, so the error names the override."""
+    scene = scenes.load("builtin:sphere-diffuse")
+    with pytest.raises(SceneError, match=r"^builtin:sphere-diffuse: override camera.fovv: unknown key; allowed: "):
+        scene.with_overrides({"camera.fovv": 3})
+    with pytest.raises(SceneError, match=r"^builtin:sphere-diffuse: camera.fov_deg"):  # the control: a bad value
+        scene.with_overrides({"camera.fov_deg": -3})
