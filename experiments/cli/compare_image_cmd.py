@@ -19,6 +19,7 @@ from experiments.publish.text import comparison_table, one_line
 def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set, args.sanitize)
     path = args.image
+    engine_image.check_file(path)
     encoding = args.image_encoding or engine_image.default_encoding(path)
     if encoding is None:
         raise UsageError(f"{path}: a PNG or JPEG holds tone-mapped sRGB: name --image-encoding srgb and the engine's "

@@ -61,6 +61,7 @@ def _positive(text: str) -> float:
 def run(args: argparse.Namespace) -> int:
     scene = load_scene(args.scene, args.set)
     path = args.image
+    engine_image.check_file(path)
     encoding = args.image_encoding or engine_image.default_encoding(path)
     if encoding is None:
         raise UsageError(f"{path}: a PNG or JPEG holds tone-mapped sRGB: name --image-encoding srgb and the engine's "

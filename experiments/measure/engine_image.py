@@ -86,6 +86,16 @@ class EngineImage:
         return Render(rgb=np.asarray(rgb, np.float32), mask=mask, timings=dict(self.timings), meta=meta)
 
 
+def check_file(path: str | Path) -> Path:
+    """`path` as a Path when it names a regular file; InputError (not found, or a folder) otherwise: checked
+    before anything is inferred from its name."""
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: image file not found" if not path.exists() else
+                         f"{path}: is a folder, not an image file" if path.is_dir() else f"{path}: not a regular file")
+    return path
+
+
 def default_encoding(path: Path) -> str | None:
     """The encoding a file's suffix implies: "linear" for EXR/PFM/HDR, None for PNG/JPEG (must be named)."""
     return "linear" if Path(path).suffix.lower() in LINEAR_SUFFIXES else None
@@ -104,8 +114,7 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
                          f"{', '.join(tone_operators.NAMES)}")
     if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
         raise InputError(f"{path}: exposure {exposure!r} must be a finite number > 0")
-    if not path.is_file():
-        raise InputError(f"{path}: image file not found" if not path.exists() else f"{path}: not a regular file")
+    check_file(path)
     if suffix not in LINEAR_SUFFIXES and suffix not in DISPLAY_SUFFIXES:
         raise InputError(f"{path}: image suffix {suffix or '(none)'!r} is not read: linear radiance as .exr, .pfm "
                          "or .hdr; a tone-mapped sRGB image as .png, .jpg or .jpeg")

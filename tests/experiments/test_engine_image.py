@@ -226,3 +226,12 @@ def test_png_needs_encoding_and_tonemap(tmp_path, capsys, args, why):
 def test_missing_image_exits_2_naming_it(tmp_path, capsys):
     assert cli.main(["compare", SCENE, "--image", str(tmp_path / "none.exr"), *sets()]) == 2
     assert "none.exr" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("command", ["compare", "diagnose"])
+def test_a_folder_or_missing_image_is_named_before_its_suffix_is_read(tmp_path, capsys, command):
+    (tmp_path / "shots").mkdir()
+    for path, words in ((tmp_path / "shots", "is a folder, not an image file"), (tmp_path / "no.png", "not found")):
+        assert cli.main([command, "builtin:sphere-diffuse", "--image", str(path)]) == 2
+        assert capsys.readouterr().err.strip() == f"error: {path}: image file {words}".replace(
+            "image file is a folder", "is a folder")
