@@ -288,7 +288,7 @@ def _report_folder(plan: outputs.Outputs, path: str | None) -> Iterator[Path | N
     folder = plan.folder(path, "--report")
     for name in ("index.html", "summary.md", sweep.RESULTS):
         plan.file(folder / name, "--report")
-    with folder_lock(folder):
+    with folder_lock(folder, "choose another --report folder"):
         yield folder
 
 
@@ -364,7 +364,7 @@ def _cmd_report(args: argparse.Namespace) -> int:
     folder = Path(args.dir)
     if not (folder / sweep.RESULTS).is_file():
         raise UsageError(f"{folder / sweep.RESULTS}: not found (run `iblcheck sweep --out {folder}` first)")
-    with outputs.Outputs() as plan, folder_lock(plan.folder(folder, "report")):
+    with outputs.Outputs() as plan, folder_lock(plan.folder(folder, "report"), "rebuild the report once it has"):
         for name in ("index.html", "summary.md"):
             plan.file(folder / name, "report")
         plan.folder(folder / "figures", "report")

@@ -232,16 +232,17 @@ class FolderBusy(InputError):
 
 
 @contextlib.contextmanager
-def folder_lock(folder: Path) -> Iterator[Path]:
+def folder_lock(folder: Path, other: str = "choose another --out") -> Iterator[Path]:
     """Hold an exclusive lock on a results folder while writing it; FolderBusy when another process
-    holds it. The lock is on the folder itself (no lock file is left behind) and ends with the process."""
+    holds it (`other`: what else the user can do, said in the error). The lock is on the folder itself (no
+    lock file is left behind) and ends with the process."""
     fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
     try:
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
             raise FolderBusy(f"{folder}: another iblcheck process is writing this folder; wait for it to finish "
-                             "or choose another --out") from None
+                             f"or {other}") from None
         yield Path(folder)
     finally:
         os.close(fd)
