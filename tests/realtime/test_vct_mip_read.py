@@ -22,7 +22,7 @@ import pytest
 
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.gpu import shader_source
+from realtime.engine.gpu import expand_includes, shader_source
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 from tests.helpers import scene_voxels
@@ -250,3 +250,22 @@ def test_two_fronts_of_different_radiance_keep_their_weights(ctx, control):
     want = (1.0 + 0.36 * 0.5) / 1.36 * L
     assert r[3] > 0.99, r
     assert (r[:3].mean() / r[3] == pytest.approx(want, rel=0.01)) == (control is None), r
+
+
+def test_the_shaders_lobe_share_above_the_horizon_is_the_numpy_one(ctx):
+    """vct_trace.glsl's vct_lobe_above against vct_math.lobe_above_horizon (itself checked against sampling
+    the lobe in tests/realtime/test_vct_math.py) on a grid of n . r and exponents."""
+    src = ("#version 430\nlayout(local_size_x = 1) in;\nlayout(std430, binding = 0) buffer B { vec4 v[]; };\n"
+           '#include "vct_trace.glsl"\n'
+           "void main() { uint i = gl_GlobalInvocationID.x; v[i].x = vct_lobe_above(v[i].y, v[i].z); }\n")
+    prog = ctx.compute_shader(expand_includes(src, PACKAGE))
+    cases = [(s, n) for s in (-1.0, -0.4, -0.05, 0.0, 0.05, 0.19, 0.6, 1.0) for n in (0.0, 1.0, 50.0, 1000.0)]
+    data = np.array([(0.0, s, n, 0.0) for s, n in cases], np.float32)
+    buf = ctx.buffer(data.tobytes())
+    buf.bind_to_storage_buffer(0)
+    prog.run(len(cases))
+    got = np.frombuffer(buf.read(), np.float32).reshape(-1, 4)[:, 0]
+    expected = [vct_math.lobe_above_horizon(s, n) for s, n in cases]
+    np.testing.assert_allclose(got, expected, atol=1e-4)  # float32 pow and acos: a few 1e-5
+    buf.release()
+    prog.release()

@@ -5,6 +5,7 @@
 // the paper's reflectance (L_d = kd / pi E, L_g = ks L).
 #include "vct_trace.glsl"
 uniform float vct_glossy_tan;  // tan of this object's glossy cone half-angle (from its Phong exponent)
+uniform float vct_glossy_exponent;  // its Phong exponent N (the lobe's share above the horizon)
 
 void vct_shade(vec3 n, vec3 v, inout vec3 Ld, inout vec3 Lg) {
 #ifdef HAS_DIFFUSE
@@ -25,7 +26,7 @@ void vct_shade(vec3 n, vec3 v, inout vec3 Ld, inout vec3 Lg) {
     Lg *= 1.0 - s.a;
 #endif
 #ifdef VCT_INTERREFLECTION
-    Lg += ks * s.rgb;
+    Lg += ks * vct_lobe_above(dot(n, r), vct_glossy_exponent) * s.rgb;
 #endif
 #endif
 }

@@ -488,6 +488,7 @@ class _VctEffect(Technique):
 
     def bind_object(self, prog: moderngl.Program, obj) -> None:
         set_uniform(prog, "vct_glossy_tan", math.tan(vct_math.glossy_half_angle(float(obj.material.exponent))))
+        set_uniform(prog, "vct_glossy_exponent", float(obj.material.exponent))
 
     def meta(self) -> dict:
         return self.voxels.meta() if self.owner else {}

@@ -197,7 +197,7 @@ void main() {
             }
             L[f] += (1.0 - F) * kd / PI * done_E[k].rgb;
         }
-        if (glossy) L[f] += F * ks * glossy_lobe(x, n, reflect(-a, n), N);
+        if (glossy) L[f] += F * ks * vct_lobe_above(c, N) * glossy_lobe(x, n, reflect(-a, n), N);
     }
     for (int f = 0; f < 6; ++f) {
         // premultiplied: the radiance of what covers the face's axis, times that coverage

@@ -110,6 +110,31 @@ def glossy_half_angle(exponent: float) -> float:
     return math.radians(min(max(a, lo), hi))
 
 
+#: midpoint samples of the lobe's polar CDF in `lobe_above_horizon` (vct_trace.glsl's VCT_HORIZON_SAMPLES)
+HORIZON_SAMPLES = 32
+
+
+def lobe_above_horizon(cos_r: float, exponent: float, samples: int = HORIZON_SAMPLES) -> float:
+    """The share of the normalised Phong lobe (N + 1) / (2 pi) (r . l)^N about r that lies above the surface
+    (n . l > 0), for n . r = cos_r; vct_trace.glsl's vct_lobe_above mirrors it.
+
+    The reference's Phong BSDF (groundtruth/pathtracer/paper_bsdf.py) gives the lobe's directions below the
+    horizon weight 0, so a surface reflects only this share of what the whole lobe sees; it matters where r
+    grazes the surface (1/2 at n . r = 0 for any N). With l at angle alpha from r and azimuth phi about it
+    (phi = 0 toward n), n . l = s cos(alpha) + c sin(alpha) cos(phi), s = n . r, c = sqrt(1 - s^2): above
+    where cos(phi) > t = -s cos(alpha) / (c sin(alpha)), a share g = acos(clamp(t, -1, 1)) / pi of the
+    azimuths. The lobe's polar CDF is cos(alpha) = xi^(1 / (N + 1)) (uniform xi, the BSDF's own sampling), so
+    the share is the mean of g over xi, taken at `samples` midpoints."""
+    s = float(np.clip(cos_r, -1.0, 1.0))
+    c = math.sqrt(max(0.0, 1.0 - s * s))
+    xi = (np.arange(samples) + 0.5) / samples
+    cos_a = xi ** (1.0 / (float(exponent) + 1.0))
+    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a * cos_a))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(c * sin_a > 0.0, -s * cos_a / (c * sin_a), -np.sign(s) * np.inf)
+    return float(np.mean(np.arccos(np.clip(t, -1.0, 1.0)) / math.pi))
+
+
 @dataclass(frozen=True)
 class Cascades:
     """`count` nested cubic grids of `resolution`^3 voxels centred on `centre`; cascade c spans

@@ -27,6 +27,24 @@ uniform float vct_normal_voxels; // the origin's offset along the normal, in the
 // the other way (vct_front)
 #define VCT_BACK_RATIO 1e-3
 
+// The share of the normalised Phong lobe of exponent N about r above the surface (n . l > 0), cos_r = n . r
+// (vct_math.lobe_above_horizon mirrors it, with its derivation): the reference's Phong BSDF gives the lobe's
+// directions below the horizon weight 0. The mean over the lobe's polar CDF cos(alpha) = xi^(1 / (N + 1))
+// at VCT_HORIZON_SAMPLES midpoints of the azimuth share acos(clamp(-s cos(alpha) / (c sin(alpha)))) / pi.
+#define VCT_HORIZON_SAMPLES 32
+float vct_lobe_above(float cos_r, float N) {
+    float s = clamp(cos_r, -1.0, 1.0);
+    float c = sqrt(max(0.0, 1.0 - s * s));
+    float sum = 0.0;
+    for (int k = 0; k < VCT_HORIZON_SAMPLES; ++k) {
+        float ca = pow((float(k) + 0.5) / float(VCT_HORIZON_SAMPLES), 1.0 / (N + 1.0));
+        float sa = sqrt(max(0.0, 1.0 - ca * ca));
+        float t = c * sa > 0.0 ? -s * ca / (c * sa) : (s > 0.0 ? -2.0 : (s < 0.0 ? 2.0 : 0.0));
+        sum += acos(clamp(t, -1.0, 1.0));
+    }
+    return sum / (3.14159265358979323846 * float(VCT_HORIZON_SAMPLES));
+}
+
 // the finest cascade holding p, half a voxel inside its box (-1: outside every cascade)
 int vct_cascade_of(vec3 p) {
     vec3 q = abs(p - vct_centre);
