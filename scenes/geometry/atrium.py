@@ -208,5 +208,5 @@ def atrium(bays: int, detail: int) -> Mesh:
 def atrium_of_size(size: str) -> Mesh:
     """The atrium of a named size (SIZES: 10k, 100k, 1M, 2M)."""
     if size not in SIZES:
-        raise MeshError(f"atrium size {size!r}: must be one of {', '.join(SIZES)}")
+        raise MeshError(f"atrium size {size!r}: must be one of {', '.join(SIZES)}, or BAYSxDETAIL (e.g. 4x2)")
     return atrium(*SIZES[size])
