@@ -239,14 +239,26 @@ def plan(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[t
     return [(spec, ov) for spec, ov, _ in plan_with_ids(scene_specs, axes, sets)]
 
 
+class UnusedAxisWarning(UserWarning):
+    """An axis of several values that changes nothing in a scene's image was left out of its rows."""
+
+
 def plan_with_ids(scene_specs: list[str], axes: Axes, sets: dict | None = None) -> list[tuple[str, dict, str]]:
-    """`plan` with each row's content id: [(scene spec, overrides, id)]."""
+    """`plan` with each row's content id: [(scene spec, overrides, id)]. An axis of two or more values that
+    no configuration of a scene keeps (it changes nothing there, `relevant`) is said in one warning."""
     out, seen = [], set()
     for spec in scene_specs:
         base = scenes.load(spec)
         if sets:
             base = base.with_overrides(sets)
-        for ov in configurations(base, axes):
+        configs = configurations(base, axes)
+        used = {k for ov in configs for k in ov}
+        unused = [k for k, values in axes.grid() if len(values) > 1 and k not in used]
+        if unused:
+            warnings.warn(f"{spec}: {', '.join(unused)} change nothing in this scene's image (its effects: "
+                          f"{', '.join(sorted(base.effects))}); their values were left out of its rows",
+                          UnusedAxisWarning, stacklevel=2)
+        for ov in configs:
             full = {**(sets or {}), **ov}
             rid = content_id(base.with_overrides(ov))  # also validates (e.g. a value not implemented yet)
             if rid not in seen:

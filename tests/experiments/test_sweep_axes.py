@@ -4,6 +4,7 @@ negative values without `=`; result rows through their typed store."""
 from __future__ import annotations
 
 import json
+import warnings
 
 import pytest
 
@@ -161,3 +162,15 @@ def test_technique_axes_on_a_scene_with_occlusion_make_only_valid_configurations
     assert ("sh", "shadow_maps", "none") not in kinds and ("sh", "prt", "none") not in kinds
     bounces = {ov.get("realtime.prt.bounces") for _, ov in got if ov.get("realtime.interreflection") == "prt"}
     assert bounces == {1, 2}
+
+
+def test_an_axis_that_changes_nothing_in_a_scene_is_said_once():
+    """sphere-diffuse has no glossy effect: its LOD bias and exponent axes are left out of its rows (README),
+    and a warning says so; on sphere-blend the same axes are kept and nothing is said."""
+    axes = sweep.Axes(face_sizes=[32], lod_biases=[0.0, 1.0, 2.0], exponents=[10.0, 20.0])
+    with pytest.warns(sweep.UnusedAxisWarning, match=r"builtin:sphere-diffuse: realtime.lod_bias, "
+                                                     r"objects.\*.material.exponent change nothing"):
+        assert len(sweep.plan(["builtin:sphere-diffuse"], axes)) == 1
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", sweep.UnusedAxisWarning)
+        assert len(sweep.plan(["builtin:sphere-blend"], axes)) == 6
