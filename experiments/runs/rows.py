@@ -41,7 +41,7 @@ from realtime.engine import technique
 from realtime.engine.context import renderer_name
 from scenes.environment import light_array
 from scenes.geometry.meshes import BUILTIN_MESHES
-from scenes.model import materials
+from scenes.model import materials, technique_registry
 from scenes.model.render import Render
 
 #: bump when what a row measures changes for the same scene (it is part of every row id)
@@ -92,10 +92,15 @@ def scene_content(scene, reference_only: bool = False) -> dict:
 
 
 def content_id(scene, reference_only: bool = False) -> str:
-    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION and the reference plugins' versions."""
+    """The id of a row of `scene`: a hash of scene_content, ROW_VERSION, the reference plugins' versions and
+    the chosen techniques' model versions (Declaration.model_version, where set)."""
     content = {"row": ROW_VERSION, "plugin": paper_bsdf.PLUGIN_VERSION, "scene": scene_content(scene, reference_only)}
     if any(o.material.type == "pbr" for o in scene.objects):  # absent without one: earlier rows keep their ids
         content["gltf_pbr_plugin"] = [gltf_pbr_bsdf.PLUGIN_VERSION, gltf_pbr_bsdf.SMITH]
+    models = {} if reference_only else {f"{d.effect}={d.name}": d.model_version
+                                        for d in technique_registry.chosen(scene.realtime) if d.model_version}
+    if models:  # absent where no chosen technique has one: those rows keep their ids
+        content["models"] = models
     text = json.dumps(content, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 

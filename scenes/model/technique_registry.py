@@ -198,6 +198,10 @@ class Declaration:
     #: the material types (scenes/model/materials.py) whose lobes it shades; None: the paper's own
     #: (diffuse, phong, blend), whose Phong lobe and kd it is written for
     materials: frozenset[str] | None = None
+    #: bump when what the technique computes changes for the same settings (a corrected estimator): it enters
+    #: the ids of the result rows that run it, so that stored rows made before are recomputed, not reused;
+    #: 0 leaves it out of the ids (rows made before it was set keep theirs)
+    model_version: int = 0
     # filled in by the registry
     distribution: str = ""  # the distribution that registered it ("iblcheck" for builtins)
     entry_point: str = ""

@@ -3,14 +3,17 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
 import scenes
+from experiments.runs import rows
 from realtime.engine import technique
 from realtime.techniques.vct import vct_math
+from scenes.model import technique_registry
 from scenes.model.scene import SceneError
 
 
@@ -402,3 +405,21 @@ def test_level_selection_outside_the_cascades_and_beyond_the_coarsest_mip():
     assert g.level_of(outside, 8 * h) == (-1, 0.0)
     assert g.levels == 6
     assert g.level_of(np.zeros(3), 2.0**10 * h) == (2, 5.0)
+
+
+def test_the_vct_model_version_enters_only_the_ids_of_rows_that_run_vct(monkeypatch):
+    """A corrected estimator must not reuse stored rows: VCT's model_version is part of its rows' ids (a bumped
+    version gives another id) and of no other row's (the control: a scene without VCT keeps its id)."""
+    with_vct = small(**{"realtime.occlusion": "vct"})
+    without = small()
+    before = (rows.content_id(with_vct), rows.content_id(without))
+    chosen = technique_registry.chosen
+
+    def bumped(rt):
+        return [dataclasses.replace(d, model_version=d.model_version + 1) if d.name == "vct" else d
+                for d in chosen(rt)]
+
+    monkeypatch.setattr(technique_registry, "chosen", bumped)
+    assert rows.content_id(with_vct) != before[0]
+    assert rows.content_id(without) == before[1]
+    assert rows.content_id(with_vct, reference_only=True) == rows.content_id(without, reference_only=True)

@@ -34,7 +34,10 @@ def describe(rt) -> dict:
     return {"vct": table}
 
 
+#: 1: the glossy terms scaled by the Phong lobe's share above the horizon (vct_math.lobe_above_horizon)
+MODEL_VERSION = 1
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
+               model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,
                fragment_glsl=("vct.glsl",), shade_entry="vct_shade", describe=describe)
 DECLARATIONS = (
