@@ -11,7 +11,8 @@ They become a Render's timings like iblcheck's own: `draw` and `total` the media
 90th percentile, `precompute`. A number that is not finite and >= 0, or a key of the wrong kind, is refused
 naming the file and key: a frame time is a claim the reports print. Other keys are the engine's own and are
 left unread (the bundled engines add load and first-frame times), except one that looks like a misspelt key
-the file lacks (`frame_msec` without `frame_ms`): that is refused, since its numbers would silently vanish.
+the file lacks (`frame_msec` holding a list, without `frame_ms`): that is refused, since its numbers would
+silently vanish.
 """
 
 from __future__ import annotations
@@ -70,14 +71,22 @@ KEYS = ("engine", "version", "frame_ms", "precompute_ms", "notes")
 MISSPELT_RATIO = 0.75
 
 
+#: the kind of value each read key holds: a misspelling holds the same kind
+KINDS = {"engine": str, "version": str, "frame_ms": list, "precompute_ms": (int, float), "notes": str}
+
+
 def _check_keys(tree: dict, where: str) -> None:
+    """Refuse a key that reads like a misspelling of a read key the file lacks: close to it (difflib), holding
+    the same kind of value, and not that key with a word added (gl_version, first_frame_ms are an engine's own)."""
     missing = [k for k in KEYS if k not in tree]
-    for key in tree:
+    for key, value in tree.items():
         if key in KEYS:
             continue
-        close = difflib.get_close_matches(str(key), missing, n=1, cutoff=MISSPELT_RATIO)
-        if close:
-            raise InputError(f"{where}: {key} is not a timings key; did you mean {close[0]}? (read: {', '.join(KEYS)})")
+        for meant in difflib.get_close_matches(str(key), missing, n=3, cutoff=MISSPELT_RATIO):
+            added_word = str(key).startswith(meant + "_") or str(key).endswith("_" + meant)
+            if added_word or isinstance(value, bool) or not isinstance(value, KINDS[meant]):
+                continue
+            raise InputError(f"{where}: {key} is not a timings key; did you mean {meant}? (read: {', '.join(KEYS)})")
 
 
 def _no_constant(name: str):
