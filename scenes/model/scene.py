@@ -14,6 +14,7 @@ from __future__ import annotations
 import copy
 import math
 import os
+import re
 import tomllib
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field, fields, is_dataclass
@@ -268,12 +269,12 @@ class Scene:
         try:
             return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
         except SceneError as exc:
-            # an unknown key that only an override names is the override's, not the file's
-            for key in overrides:
-                own = f"{self.path}: {key}: unknown key"
-                if str(exc).startswith(own):
-                    raise SceneError(f"{self.path}: override {key}: unknown key{str(exc)[len(own):]}") from None
-            raise
+            key = _override_naming(str(exc), self.path, overrides)
+            if key is None:
+                raise
+            rest = str(exc)[len(f"{self.path}: "):]
+            rest = rest[len(key) + 2:] if rest.startswith(f"{key}: ") else rest
+            raise SceneError(f"{self.path}: override {key}: {rest}") from None
 
     def _base_dir(self) -> Path:
         return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent
@@ -804,6 +805,22 @@ def _cwd_path(value: Any) -> Any:
         except ValueError:  # a NUL character: refused with the key when the scene is validated
             return value
     return value
+
+
+def _override_naming(message: str, where: str, overrides: dict[str, Any]) -> str | None:
+    """The override an "unknown key" error is about (a loaded scene's own file holds no unknown key): the
+    error names the key as the file's (`objects[0].shapee`, or its first unknown part, `camer`), the override
+    as typed (`objects.0.shapee`, `objects.*.shapee`, `camer.fov_deg`)."""
+    m = re.match(re.escape(f"{where}: ") + r"(\S+): unknown key", message)
+    if not m:
+        return None
+    named = re.sub(r"\[(\d+)\]", r".\1", m.group(1)).split(".")
+    for key in overrides:
+        parts = key.split(".")
+        if len(parts) >= len(named) and all(p == n or (p == "*" and n.isdigit())
+                                            for p, n in zip(parts, named, strict=False)):
+            return key
+    return None
 
 
 def _set_dotted(tree: dict, parts: list[str], value: Any, key: str, where: str) -> None:

@@ -294,3 +294,35 @@ def test_frame_injection_looks_up_the_world_direction_in_a_turned_environment(ct
     assert np.abs(got / want - 1.0).max() < 0.01, (got[:3], want)
     for other in others:
         assert np.abs(other / want - 1.0).max() > 0.1, (other, want)
+
+
+@pytest.mark.parametrize("tilt", [0.05, 0.1])
+def test_a_grazing_glossy_face_injects_the_lobes_share_above_the_horizon(ctx, tilt):
+    """A lone Phong plane tilted so that n . x = tilt, under a constant sky: its voxels' +x face is faced
+    (n . x > 0) and its mirror direction r = reflect(-x, n) grazes the plane (n . r = tilt). Nothing blocks
+    the lobe, but the reference's BSDF weights its directions below the plane 0: the face holds ks L0 times
+    the lobe's share above the horizon, vct_math.lobe_above_horizon (0.64 and 0.76 here, itself checked
+    against sampling the lobe), not ks L0 (the control: 1 is outside the bound)."""
+    n = np.array([tilt, math.sqrt(1.0 - tilt * tilt), 0.0])
+    t = np.array([n[1], -n[0], 0.0])
+    phong = dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, ks=(KS,) * 3,
+                                exponent=N_EXP)
+    centre = np.asarray(GRID.centre)
+    plane = quad(centre - 0.8 * t - np.array([0.0, 0.0, 0.8]), 1.6 * t, np.array([0.0, 0.0, 1.6]), n, phong)
+    env = constant_sky(ctx)
+    vs = VoxelScene(ctx, [plane], RES, 1, 6, 0.5, bounces=1, grid=GRID, env_filter=env)
+    vs.update(None, env.sh_buffer)
+    occ = vs.occupied(0)
+    faces = vs.read_faces(0)[:, 0]
+    vs.release()
+    env.release()
+    idx = np.argwhere(occ)
+    x = centre - GRID.half_extent + (idx + 0.5) * GRID.voxel_size
+    keep = (np.abs((x - centre) @ n) < 0.5 * GRID.voxel_size) & (np.abs(x[:, 2]) < 0.4) \
+        & (np.abs((x - centre) @ t) < 0.4)
+    assert keep.sum() >= 20
+    got = face_radiance(faces, FACE_PX, idx[keep]) / KS
+    share = vct_math.lobe_above_horizon(tilt, N_EXP)
+    assert share < 0.8
+    assert np.abs(got - share).max() < 0.05, (got, share)
+    assert np.abs(got - 1.0).min() > 0.15  # the control: the whole lobe

@@ -213,3 +213,15 @@ def test_an_unknown_key_only_an_override_names_is_blamed_on_the_override(tmp_pat
         scene.with_overrides({"camera.fovv": 3})
     with pytest.raises(SceneError, match=r"^builtin:sphere-diffuse: camera.fov_deg"):  # the control: a bad value
         scene.with_overrides({"camera.fov_deg": -3})
+
+
+@pytest.mark.parametrize("override, words", [
+    ({"objects.0.shapee": "sphere"}, "override objects.0.shapee: objects[0].shapee: unknown key"),
+    ({"objects.*.scalee": 2}, "override objects.*.scalee: objects[0].scalee: unknown key"),
+    ({"camer.fov_deg": 3}, "override camer.fov_deg: camer: unknown key"),
+])
+def test_an_unknown_object_or_section_key_of_an_override_is_the_overrides(override, words):
+    with pytest.raises(SceneError) as err:
+        scenes.load("builtin:sphere-diffuse").with_overrides(override)
+    assert str(err.value).startswith(f"builtin:sphere-diffuse: {words}")
+
