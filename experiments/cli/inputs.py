@@ -6,6 +6,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from experiments.measure.engine_image import TIMINGS_SUFFIX
 from experiments.publish.outputs import (
     UsageError,  # defined below the CLI: the output checks raise it
     same_file,
@@ -119,10 +120,12 @@ def refuse_overwriting(outputs: Iterable[tuple[Path | None, str]], inputs: Itera
 def gate_outputs_are_no_inputs(args, loaded: list, junit, md, record,
                                manifest: str | None = None) -> None:
     """The gate's files (--junit, --markdown, --write-baseline) overwrite none of its inputs: the scenes'
-    files, maps and meshes, an engine image, the manifest, and (except for --write-baseline, which may
-    update it) the baseline read."""
+    files, maps and meshes, an engine image and its timings file, the manifest, and (except for
+    --write-baseline, which may update it) the baseline read."""
     inputs = [f for p in loaded for f in scene_inputs(p.scene)]
-    inputs += [p.image.path for p in loaded if p.image is not None] + ([manifest] if manifest else [])
+    images = [Path(p.image.path) for p in loaded if p.image is not None]
+    inputs += images + [i.with_name(i.name[: -len(i.suffix)] + TIMINGS_SUFFIX) for i in images]
+    inputs += [manifest] if manifest else []
     baseline = [args.baseline] if args.baseline else []
     refuse_overwriting([(junit, "--junit"), (md, "--markdown")], inputs + baseline)
     refuse_overwriting([(record, "--write-baseline")], inputs)

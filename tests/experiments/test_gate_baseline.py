@@ -8,15 +8,19 @@ the image and passes; the worsened setting tested here is three levels past the 
 
 from __future__ import annotations
 
+import argparse
 import io
 import json
 import math
 import xml.etree.ElementTree as ET
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+import scenes
+from experiments.cli import inputs
 from experiments.cli import main as cli
 from experiments.publish import outputs
 from experiments.runs import gate, gate_statistics
@@ -466,3 +470,21 @@ def test_noise_estimates_match_the_spread_over_independent_references():
     for k in values:
         spread, estimate = np.std(values[k], ddof=1), math.sqrt(np.mean(np.square(estimates[k])))
         assert 0.7 < estimate / spread < 1.4, (k, estimate, spread)
+
+
+def test_write_baseline_may_update_the_baseline_read_and_an_images_timings_are_an_input(tmp_path):
+    """The one allowed overlap: --write-baseline FILE over --baseline FILE (updating it). An engine image's
+    FRAME.timings.json beside it is an input like the image."""
+    base = tmp_path / "base.json"
+    base.write_text("{}")
+    args = argparse.Namespace(baseline=str(base))
+    inputs.gate_outputs_are_no_inputs(args, [], None, None, base)  # accepted
+    with pytest.raises(outputs.UsageError, match="--junit"):
+        inputs.gate_outputs_are_no_inputs(args, [], base, None, None)
+    frame = tmp_path / "frame.exr"
+    timings = tmp_path / "frame.timings.json"
+    frame.write_bytes(b"x")
+    timings.write_text("{}")
+    planned = SimpleNamespace(scene=scenes.load("builtin:sphere-diffuse"), image=SimpleNamespace(path=frame))
+    with pytest.raises(outputs.UsageError, match="frame.timings.json, an input of this command"):
+        inputs.gate_outputs_are_no_inputs(argparse.Namespace(baseline=None), [planned], None, timings, None)
