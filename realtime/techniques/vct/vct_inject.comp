@@ -7,7 +7,8 @@
 // along -a_f sees of the surface inside it, premultiplied by the coverage along its axis (its alpha):
 // - a face some triangle faces (W_f = sum max(0, n . a_f) > 0): the surface's radiance toward v = a_f,
 //   n_f its weighted mean normal, the paper's reflectance L = (1 - F) kd / pi (E V_d + E_b)
-//   + F ks (L_g(r) V_g + L_b), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f). E is the
+//   + F ks H (L_g(r) V_g + L_b), F = f0 + schlick (1 - f0) (1 - n.v)^5, r = reflect(-v, n_f), H the Phong
+//   lobe's share above the surface (vct_lobe_above: the reference's BSDF weighs the rest 0). E is the
 //   environment's SH9 irradiance (the scene's diffuse technique's M when it is SH9), L_g the environment
 //   convolved with the normalised Phong lobe (N + 1) / (2 pi) (r.l)^N (glossy_env below). The diffuse term's V_d
 //   is the diffuse cones' visibility through the voxels themselves and E_b what they gather from the
