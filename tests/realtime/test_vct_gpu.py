@@ -32,6 +32,7 @@ import pytest
 
 import realtime
 import scenes
+from realtime.engine import gpu
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
@@ -802,3 +803,69 @@ def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):
     ratio = r[:, 0] / (math.pi * L * (1.0 - r[:, 3]))
     assert (r[:, 3] < 0.9).all(), r  # the wall fills part of every lobe
     assert ((ratio > 0.78) & (ratio < 1.02)).all(), ratio
+
+
+GRAZING_SCENE = """
+name = "grazing"
+[environment]
+map = "builtin:uffizi"
+[camera]
+origin = [0.0, 0.25, 2.2]
+target = [0.0, 0.0, 0.0]
+fov_deg = 30.0
+width = 48
+height = 48
+[[objects]]
+shape = "plane"
+resolution = 8
+scale = 1.0
+material = { type = "phong", ks = [1.0, 1.0, 1.0], exponent = 50.0 }
+[[objects]]
+shape = "plane"
+resolution = 8
+scale = 1.0
+rotate_deg = [90.0, 0.0, 0.0]
+translate = [0.0, 0.7, -0.7]
+material = { type = "diffuse", kd = [0.8, 0.8, 0.8], two_sided = true }
+"""
+
+
+def test_the_shading_scales_the_gathered_glossy_bounce_by_the_lobes_share_above_the_horizon(tmp_path, monkeypatch):
+    """A Phong ground (y = 0) seen at grazing angles reflects a lit wall behind it. The same render with the
+    shading's share H removed (its shader text edited) gathers the same voxels through the same cones, so
+    per ground pixel the bounce with H over the bounce without is H(n . r, N): n . r = -d . n for the pixel's
+    ray d, found here from the camera alone (the ray meeting y = 0), and H from vct_math.lobe_above_horizon
+    (checked against sampling the lobe in tests/realtime/test_vct_math.py)."""
+    path = tmp_path / "grazing.toml"
+    path.write_text(GRAZING_SCENE)
+    base = scenes.load(str(path)).with_overrides({"realtime.occlusion": "vct", "realtime.vct.resolution": 32,
+                                                  "realtime.vct.cascades": 1})
+    both = base.with_overrides({"realtime.interreflection": "vct"})
+
+    def bounce():
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return (realtime.render(both).rgb.astype(np.float64) - realtime.render(base).rgb.astype(np.float64),
+                    realtime.render(base).mask)
+
+    with_h, mask = bounce()
+    text = gpu.shader_text
+
+    def without_h(name, package=None):
+        source = text(name, package)
+        return source.replace("vct_lobe_above(dot(n, r), vct_glossy_exponent)", "1.0") if name == "vct.glsl" else source
+
+    monkeypatch.setattr(gpu, "shader_text", without_h)
+    assert "1.0 * s.rgb" in gpu.expand_includes('#include "vct.glsl"', "realtime.techniques.vct")
+    whole, _ = bounce()
+    d = base.camera.pixel_rays()
+    ground = (d[..., 1] < -1e-3) & mask
+    t = -base.camera.origin[1] / np.where(ground, d[..., 1], -1.0)
+    x = np.asarray(base.camera.origin) + t[..., None] * d
+    ground &= (np.abs(x[..., 0]) < 0.8) & (x[..., 2] > -0.6) & (x[..., 2] < 0.8)
+    lit = ground & (whole.mean(axis=-1) > 1e-3)
+    assert lit.sum() >= 30
+    share = np.array([vct_math.lobe_above_horizon(-dy, 50.0) for dy in d[lit][:, 1]])
+    ratio = with_h[lit].mean(axis=-1) / whole[lit].mean(axis=-1)
+    assert share.min() < 0.9  # the geometry grazes: H is not 1 (the control, H = 1 everywhere, is rejected)
+    np.testing.assert_allclose(ratio, share, atol=0.02)
