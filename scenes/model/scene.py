@@ -268,13 +268,12 @@ class Scene:
             _set_dotted(tree, key.split("."), value, key, self.path)
         try:
             return from_dict(tree, self.path, base_dir=self._base_dir(), name_default=self.name)
-        except SceneError as exc:
-            key = _override_naming(str(exc), self.path, overrides)
+        except UnknownKey as exc:
+            key = _override_naming(exc.key, overrides)
             if key is None:
                 raise
-            rest = str(exc)[len(f"{self.path}: "):]
-            rest = rest[len(key) + 2:] if rest.startswith(f"{key}: ") else rest
-            raise SceneError(f"{self.path}: override {key}: {rest}") from None
+            named = "" if exc.key == key else f"{exc.key}: "
+            raise SceneError(f"{self.path}: override {key}: {named}unknown key; allowed: {exc.allowed}") from None
 
     def _base_dir(self) -> Path:
         return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent
@@ -549,6 +548,18 @@ def _check_depth(tree: Any, where: str) -> None:
                               depth + 1))
 
 
+class UnknownKey(SceneError):
+    """A key the scene format does not have; `key` as the file names it (`camera.fovv`, `objects[0].shapee`)."""
+
+    def __init__(self, where: str, key: str, allowed) -> None:
+        self.where, self.key, self.allowed_keys = where, key, tuple(sorted(allowed))
+        self.allowed = ", ".join(self.allowed_keys)
+        super().__init__(f"{where}: {key}: unknown key; allowed: {self.allowed}")
+
+    def __reduce__(self):  # pickled whole (a Dask worker's error reaches the driver)
+        return UnknownKey, (self.where, self.key, self.allowed_keys)
+
+
 def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene") -> Scene:
     """Validate a raw TOML tree. Relative paths resolve against `base_dir`."""
 
@@ -559,7 +570,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         raise SceneError(f"{where}: the scene must be a TOML table")
     for key in tree:
         if key not in TOP_KEYS:
-            raise SceneError(f"{where}: {key}: unknown key; allowed: {', '.join(sorted(TOP_KEYS))}")
+            raise UnknownKey(where, key, TOP_KEYS)
 
     def section(name: str, table: Any, schema_name: str | None = None, prefix: str | None = None,
                 allowed_keys: set | None = None) -> dict:
@@ -573,7 +584,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         keys = allowed_keys if allowed_keys is not None else set(schema)
         for key, value in table.items():
             if key not in keys:
-                raise SceneError(f"{where}: {prefix}.{key}: unknown key; allowed: {', '.join(sorted(keys))}")
+                raise UnknownKey(where, f"{prefix}.{key}", keys)
             if key not in schema:
                 continue
             check, text = schema[key]
@@ -807,14 +818,11 @@ def _cwd_path(value: Any) -> Any:
     return value
 
 
-def _override_naming(message: str, where: str, overrides: dict[str, Any]) -> str | None:
-    """The override an "unknown key" error is about (a loaded scene's own file holds no unknown key): the
-    error names the key as the file's (`objects[0].shapee`, or its first unknown part, `camer`), the override
-    as typed (`objects.0.shapee`, `objects.*.shapee`, `camer.fov_deg`)."""
-    m = re.match(re.escape(f"{where}: ") + r"(\S+): unknown key", message)
-    if not m:
-        return None
-    named = re.sub(r"\[(\d+)\]", r".\1", m.group(1)).split(".")
+def _override_naming(named_key: str, overrides: dict[str, Any]) -> str | None:
+    """The override an unknown key is about (a loaded scene's own file holds none): the error names the key as
+    the file would (`objects[0].shapee`, or its first unknown part, `camer`), the override as typed
+    (`objects.0.shapee`, `objects.*.shapee`, `camer.fov_deg`)."""
+    named = re.sub(r"\[(\d+)\]", r".\1", named_key).split(".")
     for key in overrides:
         parts = key.split(".")
         if len(parts) >= len(named) and all(p == n or (p == "*" and n.isdigit())
