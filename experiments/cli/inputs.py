@@ -6,7 +6,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from experiments.measure.engine_image import TIMINGS_SUFFIX
+from experiments.measure.engine_image import timings_path
 from experiments.publish.outputs import (
     UsageError,  # defined below the CLI: the output checks raise it
     same_file,
@@ -124,7 +124,7 @@ def gate_outputs_are_no_inputs(args, loaded: list, junit, md, record,
     --write-baseline, which may update it) the baseline read."""
     inputs = [f for p in loaded for f in scene_inputs(p.scene)]
     images = [Path(p.image.path) for p in loaded if p.image is not None]
-    inputs += images + [i.with_name(i.name[: -len(i.suffix)] + TIMINGS_SUFFIX) for i in images]
+    inputs += images + [timings_path(i) for i in images]
     inputs += [manifest] if manifest else []
     baseline = [args.baseline] if args.baseline else []
     refuse_overwriting([(junit, "--junit"), (md, "--markdown")], inputs + baseline)

@@ -19,7 +19,7 @@ import numpy as np
 import groundtruth
 import realtime
 from engines import command as engine_command
-from experiments.cli.inputs import UsageError, load_scene, scene_inputs
+from experiments.cli.inputs import UsageError, load_scene, refuse_overwriting, scene_inputs
 from experiments.measure import metrics
 from experiments.publish import images, outputs
 from groundtruth.exact import quadrature
@@ -55,9 +55,7 @@ def check_out(plan: outputs.Outputs, out: Path, scene) -> None:
         raise UsageError(f"-o {out}: the output must be an .exr file")
     for path in (out, out.with_suffix(".png")):
         plan.file(path, "-o")
-        for source in scene_inputs(scene):
-            if outputs.same_file(path, source):
-                raise UsageError(f"-o {out}: would overwrite {path}, an input of the scene")
+    refuse_overwriting([(out, "-o"), (out.with_suffix(".png"), "-o")], scene_inputs(scene))
 
 
 def run(args: argparse.Namespace) -> int:

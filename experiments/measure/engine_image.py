@@ -96,6 +96,12 @@ def check_file(path: str | Path) -> Path:
     return path
 
 
+def timings_path(image: str | Path) -> Path:
+    """The timings JSON an engine may write beside its image: FRAME.exr -> FRAME.timings.json."""
+    image = Path(image)
+    return image.with_name(image.name[: -len(image.suffix)] + TIMINGS_SUFFIX)
+
+
 def default_encoding(path: Path) -> str | None:
     """The encoding a file's suffix implies: "linear" for EXR/PFM/HDR, None for PNG/JPEG (must be named)."""
     return "linear" if Path(path).suffix.lower() in LINEAR_SUFFIXES else None
@@ -141,7 +147,7 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
     if (w, h) != (scene.camera.width, scene.camera.height):
         raise InputError(f"{path}: image of {w} x {h} pixels; the scene {scene.name!r} renders "
                          f"{scene.camera.width} x {scene.camera.height} (camera.width x camera.height)")
-    tpath = Path(timings) if timings is not None else path.with_name(path.name[: -len(path.suffix)] + TIMINGS_SUFFIX)
+    tpath = Path(timings) if timings is not None else timings_path(path)
     reported = engine_timings.EngineTimings() if timings is None and not tpath.is_file() else engine_timings.read(tpath)
     return EngineImage(path, encoding, tonemap, float(exposure), values, bits, reported.as_render_timings(),
                        reported.engine or None, reported.version or None, alpha, coverage)
