@@ -111,12 +111,17 @@ class ResultRow:
         return self.materials[0].get("f0")
 
     @property
+    def is_engine_image(self) -> bool:
+        """An engine's image scored from a manifest (runs/image_manifest.py), not a render of iblcheck's."""
+        return self.techniques.get("renderer") == "image"
+
+    @property
     def technique_label(self) -> str:
         """A readable name of the techniques the scene's effects use, with their main parameter:
         'SH order 2', 'irradiance map 32 from 32', 'box bias 1 McGuire', 'prefiltered 64 spl', joined
         by ', ' for a scene with both effects (tables and report labels). An engine image's row
-        (techniques["renderer"] == "image", runs/image_manifest.py) is named by its label: 'image flipv'."""
-        if self.techniques.get("renderer") == "image":
+        (`is_engine_image`) is named by its label: 'image flipv'."""
+        if self.is_engine_image:
             return f"image {self.techniques.get('label') or self.techniques.get('engine')}"
         effects = [e for e in ("diffuse", "glossy") if e in self.effects]
         return ", ".join(technique_registry.row_label(e, self.techniques) for e in effects)

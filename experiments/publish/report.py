@@ -254,7 +254,7 @@ def summary_markdown(title: str, rows: list[ResultRow], sections: list[Section],
         best = {}
         for r in rows:
             # each engine image is its own row: the best of several engines' images is no configuration to pick
-            image = r.technique_label if r.techniques.get("renderer") == "image" else None
+            image = r.technique_label if r.is_engine_image else None
             key = (r.scene, r.material, r.exponent, r.f0, env_name(r.env), image)
             if r.psnr is not None and (key not in best or r.psnr > best[key].psnr):
                 best[key] = r
