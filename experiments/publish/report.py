@@ -182,6 +182,9 @@ def build(out_dir: Path, title: str = "iblcheck sweep", sections: list[Section] 
                           ("time_vs_face_size.png", plots.cost_vs_size, "filter and draw time against face size")):
         if rows and fn(rows, figdir / name):
             plot_list.append({"file": f"figures/{name}", "data": _inline(figdir / name), "alt": alt})
+        else:
+            # a plot these rows cannot draw: an earlier build's file would show rows that are gone
+            (figdir / name).unlink(missing_ok=True)
     labels = {r.id: label(r) for r in rows}
     viewer_data.copy_assets(out_dir)
     data = viewer_data.write(out_dir, rows, labels)

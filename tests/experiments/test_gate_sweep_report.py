@@ -156,6 +156,17 @@ def test_report_regenerates_from_results(small_report):
     assert (small_report / "index.html").is_file()
 
 
+def test_report_of_no_rows_leaves_no_figure_of_the_rows_that_were(small_report, tmp_path):
+    emptied = tmp_path / "emptied"
+    shutil.copytree(small_report, emptied)
+    (emptied / "results.jsonl").write_text("")
+    assert cli.main(["report", str(emptied)]) == 0
+    for name in ("psnr_ssim_vs_lod_bias.png", "psnr_vs_frame_time.png", "time_vs_face_size.png"):
+        assert (small_report / "figures" / name).is_file()  # the control: the full report has them
+        assert not (emptied / "figures" / name).exists(), name
+    assert "data:image/png;base64," not in (emptied / "index.html").read_text()
+
+
 def _chromium() -> str | None:
     for name in ("chromium", "chromium-browser", "google-chrome"):
         if shutil.which(name):
