@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     encoding = args.image_encoding or engine_image.default_encoding(path)
     if encoding is None:
         raise UsageError(f"{path}: a PNG or JPEG holds tone-mapped sRGB: name --image-encoding srgb and the engine's "
-                         "--tonemap (none, reinhard, aces-hill, aces-narkowicz, khronos-pbr-neutral, agx)")
+                         f"--tonemap ({', '.join(engine_image.TONEMAPS)})")
     if encoding == "srgb" and args.tonemap is None:
         raise UsageError(f"{path}: --image-encoding srgb needs --tonemap NAME, the operator the engine applied")
     image = engine_image.read_engine_image(path, scene, encoding, args.tonemap or "none",

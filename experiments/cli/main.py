@@ -45,6 +45,7 @@ from experiments.cli.inputs import (
     parse_list,
     parse_sets,
 )
+from experiments.measure import engine_image
 from experiments.measure.results import folder_lock, store_in
 from experiments.paper import registry
 from experiments.paper import suite as paper
@@ -54,7 +55,7 @@ from experiments.publish.text import comparison_table, one_line
 from experiments.runs import gate, sweep
 from experiments.runs.rows import measured_row
 from scenes import InputError, MissingCapability
-from scenes.model import technique_registry, tone_operators
+from scenes.model import technique_registry
 from scenes.model.scene import SCHEMA
 
 EXIT_OK, EXIT_GATE_FAILED, EXIT_BAD_INPUT, EXIT_MISSING, EXIT_INTERNAL, EXIT_INTERRUPTED = 0, 1, 2, 3, 4, 130
@@ -127,7 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--image", metavar="FILE", help="score this engine's image instead of iblcheck's real-time render")
     c.add_argument("--image-encoding", choices=["linear", "srgb"], help="linear radiance (EXR/PFM/HDR, the default "
                    "for those) or tone-mapped sRGB (PNG/JPEG: must be named, with --tonemap)")
-    c.add_argument("--tonemap", choices=list(tone_operators.NAMES), help="the operator the engine applied (srgb)")
+    c.add_argument("--tonemap", choices=list(engine_image.TONEMAPS),
+                   help="the operator the engine applied (srgb); scene: the scene's own display transform, what "
+                        "the PNG of `iblcheck render` holds")
     c.add_argument("--exposure", type=tolerance("--exposure", positive=True), help="the engine's exposure (srgb)")
     c.add_argument("--report", metavar="DIR", help="also write an HTML report of the comparison into DIR "
                    "(index.html with the image viewer; the row is added to DIR/results.jsonl)")

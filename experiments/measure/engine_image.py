@@ -11,8 +11,9 @@ Two kinds of image (docs/contract.md, the display-space rule):
   measured by `measure_pair` exactly as iblcheck's own real-time image: the scene's display transform
   on both sides, every metric.
 - **srgb** (PNG 8 or 16 bit, JPEG): a tone-mapped, sRGB-encoded image. The reference is put through the
-  same named operator and exposure (scenes/model/tone_operators.py), sRGB-encoded and quantised to the
-  image's bit depth; the image's code values become [0, 1]; PSNR, SSIM and FLIP are computed on the
+  same named operator and exposure (scenes/model/tone_operators.py), or with the operator `scene` through
+  the scene's own display transform (metrics.display: the PNG `iblcheck render` writes), sRGB-encoded and
+  quantised to the image's bit depth; the image's code values become [0, 1]; PSNR, SSIM and FLIP are computed on the
   common mask of those display values. The linear metrics (rel_mse, psnr_unbiased) are None:
   "display-space metrics only (the image is tone-mapped sRGB)".
 
@@ -44,6 +45,12 @@ from scenes.storage import imageio as hdr_io
 from scenes.storage import png16
 
 ENCODINGS = ("linear", "srgb")
+#: the operator naming the scene's own display transform (metrics.display: Reinhard with the scene's
+#: [tonemap] key, white and exposure and its environment's adaptation luminance, then sRGB), which is what
+#: the PNG of `iblcheck render` holds; its exposure is the scene's, so the image's own must stay 1
+SCENE_TONEMAP = "scene"
+#: the operators an sRGB image may name: an engine's (tone_operators.NAMES) or the scene's own
+TONEMAPS = (*tone_operators.NAMES, SCENE_TONEMAP)
 #: file suffixes per encoding
 LINEAR_SUFFIXES = {".exr": hdr_io.read_exr, ".pfm": hdr_io.read_pfm, ".hdr": hdr_io.read_hdr}
 DISPLAY_SUFFIXES = (".png", ".jpg", ".jpeg")
@@ -115,11 +122,13 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
     suffix = path.suffix.lower()
     if encoding not in ENCODINGS:
         raise InputError(f"{path}: image encoding {encoding!r} is unknown; choose linear or srgb")
-    if tonemap not in tone_operators.NAMES:
-        raise InputError(f"{path}: tone mapping {tonemap!r} is unknown; choose one of "
-                         f"{', '.join(tone_operators.NAMES)}")
+    if tonemap not in TONEMAPS:
+        raise InputError(f"{path}: tone mapping {tonemap!r} is unknown; choose one of {', '.join(TONEMAPS)}")
     if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
         raise InputError(f"{path}: exposure {exposure!r} must be a finite number > 0")
+    if tonemap == SCENE_TONEMAP and exposure != 1.0:
+        raise InputError(f"{path}: exposure {exposure:g} with tone mapping {SCENE_TONEMAP!r}: the scene's display "
+                         "transform has its own ([tonemap] exposure); leave the image's exposure at 1")
     check_file(path)
     if suffix not in LINEAR_SUFFIXES and suffix not in DISPLAY_SUFFIXES:
         raise InputError(f"{path}: image suffix {suffix or '(none)'!r} is not read: linear radiance as .exr, .pfm "
@@ -191,10 +200,14 @@ def _read_display(path: Path) -> tuple[np.ndarray, int, bool]:
 # --------------------------------------------------------------------------- display-space measurement
 
 
-def display_reference(rgb: np.ndarray, image: EngineImage) -> np.ndarray:
-    """The reference's radiance as the engine's file would hold it: the named operator and exposure, the
-    sRGB encoding, rounded to the image's bit depth, in [0, 1]."""
-    encoded = srgb_encode(tone_operators.apply(image.tonemap, rgb, image.exposure))
+def display_reference(rgb: np.ndarray, image: EngineImage, scene) -> np.ndarray:
+    """The reference's radiance as the engine's file would hold it: the named operator and exposure (the
+    scene's display transform for `SCENE_TONEMAP`), the sRGB encoding, rounded to the image's bit depth, in
+    [0, 1]."""
+    if image.tonemap == SCENE_TONEMAP:
+        encoded = np.asarray(metrics.display(scene, rgb), np.float64)
+    else:
+        encoded = srgb_encode(tone_operators.apply(image.tonemap, rgb, image.exposure))
     top = float((1 << image.bits) - 1) if image.bits else None
     return encoded if top is None else np.round(encoded * top) / top
 
@@ -205,7 +218,7 @@ def measure_display_pair(image: EngineImage, reference: Render, scene, *,
     (module docstring). `rel_mse` and `psnr_unbiased` are None; the noise floor is that of the two
     references in the same display space."""
     a = np.asarray(image.values, np.float64)
-    b = display_reference(reference.rgb, image)
+    b = display_reference(reference.rgb, image, scene)
     covered = metrics.common_mask(np.ones(a.shape[:2], bool), reference.mask)
     empty = metrics.no_signal(b, covered)
     mask = np.zeros_like(covered) if empty else covered
@@ -213,7 +226,7 @@ def measure_display_pair(image: EngineImage, reference: Render, scene, *,
         b2, noise_mask = None, mask
         floor = metrics.PSNR_CAP if mask.any() else None
     else:
-        b2, noise_mask = display_reference(second_reference.rgb, image), mask & second_reference.mask
+        b2, noise_mask = display_reference(second_reference.rgb, image, scene), mask & second_reference.mask
         floor = metrics.noise_floor_psnr(b, b2, noise_mask)
     ssim = metrics.ssim(a, b, mask, full=True)
     flip_map = metrics.flip_map(a.astype(np.float32), b.astype(np.float32))

@@ -6,7 +6,8 @@ A manifest (TOML or JSON) lists the images another renderer made of iblcheck's s
     scene = "builtin:sphere-diffuse"     # or a scene file, relative to the manifest
     image = "out/sphere.exr"             # relative to the manifest
     encoding = "linear"                  # optional: linear (EXR/PFM/HDR default) | srgb (PNG/JPEG: required)
-    tonemap = "none"                     # the engine's operator (srgb), scenes/model/tone_operators.py
+    tonemap = "none"                     # the engine's operator (srgb), scenes/model/tone_operators.py, or
+                                         # "scene": the scene's own display transform (iblcheck render's PNG)
     exposure = 1.0                       # the engine's exposure (srgb)
     label = "threejs"                    # optional: the image file's stem; scene + label is the baseline key
 
@@ -32,7 +33,6 @@ from experiments.runs.gate import Planned, scene_key, thresholds_for
 from experiments.runs.rows import content_id, file_digest, image_row_id, materials_of
 from scenes import InputError
 from scenes.exchange import scene_spec
-from scenes.model import tone_operators
 from scenes.storage.files import read_input
 
 MAX_MANIFEST_BYTES = 4 << 20
@@ -102,8 +102,8 @@ def _entry(path: Path, i: int, item: Any) -> Entry:
                          if encoding is not None else f"{where}.encoding: missing; a PNG or JPEG must say "
                          "encoding = \"srgb\" and its tonemap")
     tonemap = item.get("tonemap", None if encoding == "srgb" else "none")
-    if tonemap not in tone_operators.NAMES:
-        raise InputError(f"{where}.tonemap: {tonemap!r}; choose one of {', '.join(tone_operators.NAMES)}"
+    if tonemap not in engine_image.TONEMAPS:
+        raise InputError(f"{where}.tonemap: {tonemap!r}; choose one of {', '.join(engine_image.TONEMAPS)}"
                          + (" (an srgb image must name its operator)" if tonemap is None else ""))
     exposure = item.get("exposure", 1.0)
     if isinstance(exposure, bool) or not isinstance(exposure, (int, float)) or not (0 < exposure < float("inf")):

@@ -137,7 +137,7 @@ def test_display_reference_quantised_to_the_files_bits(scene, tmp_path):
     rgb = np.random.default_rng(1).uniform(0, 4, (64, 64, 3))
     for bits in (8, 16):
         img = engine_image.EngineImage(tmp_path / "x.png", "srgb", "aces-narkowicz", 1.3, np.zeros((64, 64, 3)), bits)
-        out = engine_image.display_reference(rgb, img)
+        out = engine_image.display_reference(rgb, img, scene)
         by_hand = srgb_encode(np.clip(1.3 * rgb * (2.51 * 1.3 * rgb + 0.03) / (1.3 * rgb * (2.43 * 1.3 * rgb + 0.59)
                                                                                  + 0.14), 0, 1))
         step = 1 / ((1 << bits) - 1)
@@ -210,6 +210,32 @@ def test_png_after_aces_hill_scores_the_hand_display_psnr(scene, realtime_rgb, t
                       "--json", *sets()], capsys)
     print(f"declared reinhard instead: {wrong['psnr']:.3f} dB")
     assert wrong["psnr"] < res["psnr"] - 1.0
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+def test_the_png_of_iblcheck_render_scores_as_compare_with_the_scenes_display_transform(tmp_path, capsys):
+    # `iblcheck compare` measures in the scene's display space (Reinhard with the scene's key, white and
+    # adaptation, then sRGB): the PNG `iblcheck render` writes holds that image quantised to 8 bits, so
+    # scored with --tonemap scene it must give compare's PSNR to within the quantisation and the few
+    # silhouette pixels whose coverage differs
+    out = tmp_path / "own.exr"
+    assert cli.main(["render", SCENE, "-o", str(out), *sets()]) == 0
+    own = run_json(["compare", SCENE, "--json", *sets()], capsys)
+    png = ["compare", SCENE, "--image", str(out.with_suffix(".png")), "--image-encoding", "srgb", "--json", *sets()]
+    res = run_json([*png, "--tonemap", "scene"], capsys)
+    # negative control: the engines' plain Reinhard (no key, white or adaptation) is another transform
+    wrong = run_json([*png, "--tonemap", "reinhard"], capsys)
+    print(f"own PNG with the scene's transform {res['psnr']:.3f} dB, declared reinhard {wrong['psnr']:.3f} dB; "
+          f"iblcheck compare {own['psnr']:.3f} dB")
+    assert abs(res["psnr"] - own["psnr"]) < 0.5 and res["tonemap"] == "scene" and "display-space" in res["note"]
+    assert wrong["psnr"] < res["psnr"] - 1.0
+
+
+def test_the_scenes_transform_keeps_the_images_exposure_at_1(scene, tmp_path, capsys):
+    iio.imwrite(tmp_path / "a.png", np.zeros((64, 64, 3), np.uint8))
+    with pytest.raises(InputError, match=r"a.png: exposure 2 with tone mapping 'scene'"):
+        engine_image.read_engine_image(tmp_path / "a.png", scene, "srgb", "scene", 2.0)
 
 
 @pytest.mark.parametrize("args,why", [
