@@ -17,7 +17,8 @@ indirect energy ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and at the bes
 The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the irradiance the cones find
 just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak), at every
 resolution, at the grid's own placement and over placements shifted by fractions of a voxel (the leak
-depends on where the walls fall in the coarse texels).
+depends on where the walls fall in the coarse texels), with the box as modelled (walls along the grid's axes)
+and turned obliquely to them (`LEAK_ROTATIONS`).
 The seed's storage comparison (e10_voxel_storage.py): the cascaded texture against a dense 3D texture, a sparse
 voxel octree, a Morton-ordered octree and a sparse voxel DAG of the same voxels, on procedural atriums of growing
 size (up to 2e6 triangles) at 32^3 ... 512^3: voxel count, build time and memory, and whether the seed's claim
@@ -46,6 +47,9 @@ from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene
+from scenes.environment.directions import rotation_xyz
+from scenes.geometry import meshes
+from scenes.model.scene import Material
 
 NUMBER = 10
 TITLE = "E10 what interreflection costs (voxel cone tracing)"
@@ -62,6 +66,7 @@ class Settings:
     energy_resolutions: tuple[int, ...]  # the energy table's resolutions (the best setting's cascades, cones)
     leak_resolutions: tuple[int, ...]
     leak_offsets: int  # grid placements of the thin-wall leak (the first is the grid's own)
+    leak_rotations: tuple[tuple[float, float, float], ...]  # the thin-wall scene turned (rotation_xyz, degrees)
     ladder: bool  # PRT and light-array rows beside VCT's
     storage: e10_voxel_storage.Settings  # the seed's storage comparison on the procedural atrium
 
@@ -72,13 +77,15 @@ class Settings:
 
 
 QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy_resolutions=(32, 64),
-                 leak_resolutions=(32, 64), leak_offsets=2, ladder=True, storage=e10_voxel_storage.QUICK)
+                 leak_resolutions=(32, 64), leak_offsets=2, leak_rotations=((0.0, 0.0, 0.0), (20.0, 25.0, 0.0)),
+                 ladder=True, storage=e10_voxel_storage.QUICK)
 # a subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 takes about 15 s a
 # frame on llvmpipe, its injection most of it): every resolution at one cascade, 2 and 3 cascades at 64^3, and 4
 # and 9 cones at 64^3 x 2; one timed frame after one warm-up frame
 FULL = Settings(grid=((32, 1, 6), (64, 1, 6), (128, 1, 6), (64, 2, 6), (64, 3, 6), (64, 2, 4), (64, 2, 9)),
                 frames=1, bounces=(1, 2, 3), energy_resolutions=(32, 64, 128), leak_resolutions=(32, 64, 128),
-                leak_offsets=5, ladder=True, storage=e10_voxel_storage.FULL)
+                leak_offsets=5, leak_rotations=((0.0, 0.0, 0.0), (20.0, 25.0, 0.0)), ladder=True,
+                storage=e10_voxel_storage.FULL)
 #: the energy table also gives the share of each one-bounce image's light held by its brightest 2 % of pixels:
 #: a mean ratio near or far from 1 can hide where the light sits (torus-phong's glossy bounce: a few pixels)
 BRIGHTEST = 0.02
@@ -225,21 +232,41 @@ def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
             "brightest_share_path": metrics.brightest_share(refs[3].rgb - refs[2].rgb, mask, BRIGHTEST)}
 
 
-def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1) -> list[dict]:
+@dataclass(frozen=True)
+class PosedObject:
+    """A scene object's triangles in another pose, with its material: what VoxelScene reads of an object."""
+
+    mesh: meshes.Mesh
+    material: Material
+
+
+def thin_wall_probes(rotate_deg=(0.0, 0.0, 0.0)) -> tuple[list[PosedObject], np.ndarray, np.ndarray, np.ndarray]:
+    """The thin-wall scene turned about the origin (the centre of the box's floor) by rotation_xyz(rotate_deg):
+    its objects, the 16 probe points on the ground inside the box, the 16 on a ring around it outside, and the
+    ground's normal, all turned by the same rotation."""
+    scene = scenes.load("builtin:thin-wall")
+    r = rotation_xyz(rotate_deg)
+    posed = [PosedObject(o.mesh.transformed(1.0, rotate_deg, (0.0, 0.0, 0.0)), o.material) for o in scene.objects]
+    xs = np.linspace(-0.3, 0.3, 4)
+    inside = np.array([[x, 0.0, z] for x in xs for z in xs])
+    ring = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
+    outside = np.stack([1.2 * np.cos(ring), np.zeros_like(ring), 1.2 * np.sin(ring)], -1)
+    return posed, inside @ r.T, outside @ r.T, r @ np.array([0.0, 1.0, 0.0])
+
+
+def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1,
+                   rotate_deg=(0.0, 0.0, 0.0)) -> list[dict]:
     """The thin-wall scene's leak: the irradiance the cones find (environment x visibility + gathered) on
     the ground inside the closed box (walls of zero thickness: one voxel once voxelised; exactly 0 in the
     path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe).
     At each resolution: the grid's own placement, then `offsets` - 1 placements shifted by the fractions
     k / offsets of (4.37, 2.9, 4.37) voxels (incommensurate with the box, so the walls fall at other places
-    in the coarse texels): the leak at the own placement, the mean and the largest over all."""
+    in the coarse texels): the leak at the own placement, the mean and the largest over all. `rotate_deg`
+    turns the whole scene (thin_wall_probes): walls oblique to the grid's axes, the environment unturned."""
     ctx = get_context()
     scene = scenes.load("builtin:thin-wall")
-    xs = np.linspace(-0.3, 0.3, 4)
-    inside = np.array([[x, 0.0, z] for x in xs for z in xs])
-    ring = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
-    outside = np.stack([1.2 * np.cos(ring), np.zeros_like(ring), 1.2 * np.sin(ring)], -1)
-    up = np.array([0.0, 1.0, 0.0])
-    lo, hi = vct.scene_bounds(scene.objects)
+    objects, inside, outside, up = thin_wall_probes(rotate_deg)
+    lo, hi = vct.scene_bounds(objects)
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)
     env.build_chain(None)
@@ -255,7 +282,7 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1) ->
             shift = np.array([4.37, 2.9, 4.37]) * own.voxel_size * k / offsets
             grid = vct_math.Cascades(tuple(float(c) for c in np.asarray(own.centre) + shift), own.half_extent,
                                      res, cascades)
-            vs = VoxelScene(ctx, scene.objects, res, cascades, 6, 0.5, grid=grid)
+            vs = VoxelScene(ctx, objects, res, cascades, 6, 0.5, grid=grid)
             vs.update(None, env.sh_buffer)
             r_in = vs.probe(inside, np.tile(up, (len(inside), 1)))
             r_out = vs.probe(outside, np.tile(up, (len(outside), 1)))
@@ -267,9 +294,17 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1) ->
                 first = {"inside": float(e_in), "outside": float(e_out), "visibility_inside": float(r_in[:, 3].mean()),
                          "visibility_outside": float(r_out[:, 3].mean())}
         out.append({"resolution": res, "cascades": cascades, "voxel": own.voxel_size, **first, "leak": leaks[0],
-                    "leak_mean": float(np.mean(leaks)), "leak_max": float(np.max(leaks)), "placements": offsets})
+                    "leak_mean": float(np.mean(leaks)), "leak_max": float(np.max(leaks)), "placements": offsets,
+                    "rotate_deg": tuple(float(a) for a in rotate_deg)})
     env.release()
     return out
+
+
+def walls(rotate_deg) -> str:
+    """How a leak row's box stands to the grid: along its axes, or turned (degrees about x, y, z)."""
+    if not any(rotate_deg):
+        return "along the grid's axes"
+    return "turned " + " / ".join(f"{a:g}" for a in rotate_deg) + " deg about x / y / z"
 
 
 def run(context: Context, settings: Settings) -> Section:
@@ -288,7 +323,8 @@ def run(context: Context, settings: Settings) -> Section:
         energy[name] = energy_split(context, spec, b.overrides if b else vct_ov(64, 2, 6, True), s) | {
             "setting": setting(b) if b else None}
         context.progress()
-    leak = thin_wall_leak(s.leak_resolutions, offsets=s.leak_offsets)
+    leak = [x for rot in s.leak_rotations for x in thin_wall_leak(s.leak_resolutions, offsets=s.leak_offsets,
+                                                                  rotate_deg=rot)]
     context.progress()
     storage = e10_voxel_storage.run(context.out, s.storage, step=context.progress)
     storage_figure = e10_voxel_storage.FIGURE
@@ -329,9 +365,10 @@ def run(context: Context, settings: Settings) -> Section:
     b_rows = [[name, "x".join(map(str, e["setting"])) if e["setting"] else "-", str(x["bounces"]),
                f4(x["indirect_vct"]), f4(x["indirect_path"]), f3(x["indirect_ratio"])]
               for name, e in energy.items() for x in e["by_bounces"]]
-    l_header = ["resolution", "cascades", "voxel", "irradiance inside", "outside", "leak (inside / outside)",
+    l_header = ["walls", "resolution", "cascades", "voxel", "irradiance inside", "outside", "leak (inside / outside)",
                 "leak mean over placements", "leak max over placements", "visibility inside", "visibility outside"]
-    l_rows = [[str(x["resolution"]), str(x["cascades"]), f"{x['voxel']:.4f}", f4(x["inside"]), f4(x["outside"]),
+    l_rows = [[walls(x["rotate_deg"]), str(x["resolution"]), str(x["cascades"]), f"{x['voxel']:.4f}",
+               f4(x["inside"]), f4(x["outside"]),
                f"{100 * x['leak']:.2f} %", f"{100 * x['leak_mean']:.2f} %", f"{100 * x['leak_max']:.2f} %",
                f3(x["visibility_inside"]), f3(x["visibility_outside"])] for x in leak]
     findings = summarize(per_scene, energy, leak)
@@ -349,7 +386,9 @@ def run(context: Context, settings: Settings) -> Section:
             "difference of two renders) counted as 0, where the means above keep them. The leak: the irradiance "
             "the diffuse cones find on the ground inside a closed box with walls of zero thickness (one voxel once "
             "voxelised; the path tracer's is 0) over the irradiance on the ground outside it, at the grid's own "
-            f"placement and over {s.leak_offsets} placements shifted by fractions of a voxel. The ladder rows: "
+            f"placement and over {s.leak_offsets} placements shifted by fractions of a voxel, with the box's walls "
+            "along the grid's axes and with the whole scene turned so that every wall is oblique to them (the "
+            "environment unturned). The ladder rows: "
             f"PRT of order {PRT_LADDER[0]}, {PRT_LADDER[1]} rays, {PRT_LADDER[2]} bounce (diffuse scenes), and "
             f"{LIGHTS_LADDER[1]} {LIGHTS_LADDER[0]} lights with {LIGHTS_LADDER[2]}^2 shadow maps.")
     md = ("\n".join(f"- {f}" for f in findings) + "\n\n" + report.md_table(header, table) + "\n\n"
@@ -396,7 +435,8 @@ def summarize(per_scene: dict, energy: dict, leak: list[dict]) -> list[str]:
                        + f" of VCT's bounce by resolution, {percent(e['brightest_share_path'])} of the "
                        "path tracer's.")
     for x in leak:
-        out.append(f"thin wall at {x['resolution']}^3 (voxel {x['voxel']:.4f}): {100 * x['leak']:.2f} % of the lit "
+        out.append(f"thin wall ({walls(x['rotate_deg'])}) at {x['resolution']}^3 (voxel {x['voxel']:.4f}): "
+                   f"{100 * x['leak']:.2f} % of the lit "
                    f"side's irradiance leaks inside (mean {100 * x['leak_mean']:.2f} %, at most "
                    f"{100 * x['leak_max']:.2f} % over {x['placements']} grid placements; target at most 1 %).")
     return out

@@ -5,9 +5,11 @@ from __future__ import annotations
 
 import dataclasses
 
+import numpy as np
 import pytest
 
 from experiments.paper import e10_voxel_cone_tracing as e10
+from scenes.environment.directions import rotation_xyz
 
 
 @pytest.mark.parametrize("spec", [spec for _, spec in e10.SCENES])
@@ -51,6 +53,38 @@ def test_thin_wall_leak_is_measured():
     assert x["leak"] == pytest.approx(x["inside"] / x["outside"])
     assert min(x["leak"], x["leak_mean"]) <= x["leak_mean"] <= x["leak_max"] and x["placements"] == 2
     assert x["visibility_inside"] < x["visibility_outside"]
+
+
+@pytest.mark.parametrize("rotate_deg", [(0.0, 0.0, 0.0), (20.0, 25.0, 0.0), (90.0, 0.0, 0.0)])
+def test_turned_thin_wall_probes_stay_on_the_turned_floor_inside_and_outside_the_box(rotate_deg):
+    # the box's walls stand on the ground y = 0 at x, z = +-0.5 before turning; turned back by the rotation's
+    # transpose, every probe must be on that ground (y = 0), the inside ones within the walls, the outside
+    # ones beyond them, and the normal the ground's up
+    objects, inside, outside, up = e10.thin_wall_probes(rotate_deg)
+    r = rotation_xyz(rotate_deg)
+    ground = objects[0].mesh
+    assert np.allclose((ground.positions.astype(np.float64) @ r)[:, 1], 0.0, atol=1e-6)
+    back_in, back_out = inside @ r, outside @ r
+    assert np.allclose(back_in[:, 1], 0.0, atol=1e-12) and np.allclose(back_out[:, 1], 0.0, atol=1e-12)
+    assert np.abs(back_in[:, [0, 2]]).max() < 0.5 < np.abs(back_out[:, [0, 2]]).max(axis=1).min()
+    assert np.allclose(up @ r, [0.0, 1.0, 0.0])
+    assert np.allclose(ground.normals @ r, [0.0, 1.0, 0.0], atol=1e-6)
+
+
+def test_turned_thin_wall_probes_are_not_the_unturned_ones():
+    # negative control of the test above: the turn moves the probes off the unturned ground
+    _, inside, _, up = e10.thin_wall_probes((20.0, 25.0, 0.0))
+    assert np.abs(inside[:, 1]).max() > 0.05 and abs(up[1]) < 0.95
+
+
+@pytest.mark.gl
+def test_quarter_turn_about_the_ground_normal_keeps_the_leak():
+    # a quarter turn about y maps the box, the ground and both probe sets onto themselves (and the grid, centred
+    # on bounds that do not change): the leak must not move beyond the voxelisation of the ground's triangles
+    (still,) = e10.thin_wall_leak((16,))
+    (turned,) = e10.thin_wall_leak((16,), rotate_deg=(0.0, 90.0, 0.0))
+    assert turned["leak"] == pytest.approx(still["leak"], rel=0.05, abs=1e-4)
+    assert turned["outside"] == pytest.approx(still["outside"], rel=0.02)
 
 
 def test_settings_without_one_bounce_are_refused():
