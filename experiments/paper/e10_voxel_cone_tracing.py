@@ -18,7 +18,7 @@ The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the ir
 just inside a one-voxel wall of a closed box over the irradiance just outside it (the leak), at every
 resolution, at the grid's own placement and over placements shifted by fractions of a voxel (the leak
 depends on where the walls fall in the coarse texels), with the box as modelled (walls along the grid's axes)
-and turned obliquely to them (`LEAK_ROTATIONS`).
+and turned obliquely to them (`Settings.leak_rotations`).
 The seed's storage comparison (e10_voxel_storage.py): the cascaded texture against a dense 3D texture, a sparse
 voxel octree, a Morton-ordered octree and a sparse voxel DAG of the same voxels, on procedural atriums of growing
 size (up to 2e6 triangles) at 32^3 ... 512^3: voxel count, build time and memory, and whether the seed's claim
