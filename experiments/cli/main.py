@@ -131,7 +131,8 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--tonemap", choices=list(engine_image.TONEMAPS),
                    help="the operator the engine applied (srgb); scene: the scene's own display transform, what "
                         "the PNG of `iblcheck render` holds")
-    c.add_argument("--exposure", type=tolerance("--exposure", positive=True), help="the engine's exposure (srgb)")
+    c.add_argument("--exposure", type=tolerance("--exposure", positive=True),
+                   help="the engine's exposure (srgb; 1 with --tonemap scene)")
     c.add_argument("--report", metavar="DIR", help="also write an HTML report of the comparison into DIR "
                    "(index.html with the image viewer; the row is added to DIR/results.jsonl)")
     c.set_defaults(func=_cmd_compare)

@@ -11,9 +11,10 @@ Two kinds of image (docs/contract.md, the display-space rule):
   measured by `measure_pair` exactly as iblcheck's own real-time image: the scene's display transform
   on both sides, every metric.
 - **srgb** (PNG 8 or 16 bit, JPEG): a tone-mapped, sRGB-encoded image. The reference is put through the
-  same named operator and exposure (scenes/model/tone_operators.py), or with the operator `scene` through
-  the scene's own display transform (metrics.display: the PNG `iblcheck render` writes), sRGB-encoded and
-  quantised to the image's bit depth; the image's code values become [0, 1]; PSNR, SSIM and FLIP are computed on the
+  same named operator and exposure (scenes/model/tone_operators.py) and sRGB-encoded, or with the operator
+  `scene` through the scene's own display transform (metrics.display, the sRGB encoding included: the PNG
+  `iblcheck render` writes), then quantised to the image's bit depth; the image's code values become [0, 1];
+  PSNR, SSIM and FLIP are computed on the
   common mask of those display values. The linear metrics (rel_mse, psnr_unbiased) are None:
   "display-space metrics only (the image is tone-mapped sRGB)".
 

@@ -240,7 +240,8 @@ class PosedObject:
     material: Material
 
 
-def thin_wall_probes(rotate_deg=(0.0, 0.0, 0.0)) -> tuple[list[PosedObject], np.ndarray, np.ndarray, np.ndarray]:
+def thin_wall_probes(rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+                     ) -> tuple[list[PosedObject], np.ndarray, np.ndarray, np.ndarray]:
     """The thin-wall scene turned about the origin (the centre of the box's floor) by rotation_xyz(rotate_deg):
     its objects, the 16 probe points on the ground inside the box, the 16 on a ring around it outside, and the
     ground's normal, all turned by the same rotation."""
@@ -254,8 +255,8 @@ def thin_wall_probes(rotate_deg=(0.0, 0.0, 0.0)) -> tuple[list[PosedObject], np.
     return posed, inside @ r.T, outside @ r.T, r @ np.array([0.0, 1.0, 0.0])
 
 
-def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1,
-                   rotate_deg=(0.0, 0.0, 0.0)) -> list[dict]:
+def thin_wall_leak(resolutions: tuple[int, ...] = (32, 64), cascades: int = 1, offsets: int = 1,
+                   rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)) -> list[dict]:
     """The thin-wall scene's leak: the irradiance the cones find (environment x visibility + gathered) on
     the ground inside the closed box (walls of zero thickness: one voxel once voxelised; exactly 0 in the
     path tracer) over the same on the ground outside it, both facing up (realtime.vct.VoxelScene.probe).
@@ -300,7 +301,7 @@ def thin_wall_leak(resolutions=(32, 64), cascades: int = 1, offsets: int = 1,
     return out
 
 
-def walls(rotate_deg) -> str:
+def walls(rotate_deg: tuple[float, float, float]) -> str:
     """How a leak row's box stands to the grid: along its axes, or turned (degrees about x, y, z)."""
     if not any(rotate_deg):
         return "along the grid's axes"

@@ -23,7 +23,7 @@ from experiments.measure import comparison, engine_image, metrics
 from scenes import InputError
 from scenes.model import tone_operators
 from scenes.model.render import Render
-from scenes.model.tonemap import srgb_encode, to_uint8
+from scenes.model.tonemap import adaptation_luminance, srgb_encode, to_uint8
 from scenes.storage.imageio import write_exr, write_pfm
 from tests.scenes.test_png16 import encode as encode_png16
 
@@ -232,10 +232,23 @@ def test_the_png_of_iblcheck_render_scores_as_compare_with_the_scenes_display_tr
     assert wrong["psnr"] < res["psnr"] - 1.0
 
 
-def test_the_scenes_transform_keeps_the_images_exposure_at_1(scene, tmp_path, capsys):
+def test_the_scenes_transform_keeps_the_images_exposure_at_1(scene, tmp_path):
     iio.imwrite(tmp_path / "a.png", np.zeros((64, 64, 3), np.uint8))
     with pytest.raises(InputError, match=r"a.png: exposure 2 with tone mapping 'scene'"):
         engine_image.read_engine_image(tmp_path / "a.png", scene, "srgb", "scene", 2.0)
+    assert engine_image.read_engine_image(tmp_path / "a.png", scene, "srgb", "scene", 1.0).tonemap == "scene"
+
+
+def test_the_scenes_transform_is_reinhard_with_the_scenes_key_white_and_adaptation(scene, tmp_path):
+    # by hand from Reinhard's eq. 4 and the scene's [tonemap] and environment, then sRGB and 8 bits
+    rgb = np.random.default_rng(2).uniform(0, 4, (64, 64, 3))
+    img = engine_image.EngineImage(tmp_path / "x.png", "srgb", "scene", 1.0, np.zeros((64, 64, 3)), 8)
+    tm = scene.tonemap
+    x = np.minimum(rgb * tm.key / adaptation_luminance(scene.environment.radiance()) * 2.0 ** tm.exposure, tm.white)
+    by_hand = np.round(255 * srgb_encode(x * (1 + x / tm.white ** 2) / (1 + x))) / 255
+    assert np.abs(engine_image.display_reference(rgb, img, scene) - by_hand).max() <= 1 / 255 + 1e-9
+    plain = engine_image.EngineImage(tmp_path / "x.png", "srgb", "reinhard", 1.0, np.zeros((64, 64, 3)), 8)
+    assert np.abs(engine_image.display_reference(rgb, plain, scene) - by_hand).max() > 0.05  # another transform
 
 
 @pytest.mark.parametrize("args,why", [

@@ -43,6 +43,8 @@ def manifest(folder: Path, image: str, label: str = "mine") -> Path:
     ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.png"\n', "images[0].encoding"),
     ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.png"\nencoding = "srgb"\n', "images[0].tonemap"),
     ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.exr"\nexposure = -1\n', "images[0].exposure"),
+    ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.png"\nencoding = "srgb"\ntonemap = "scene"\n'
+     'exposure = 2\n', "images[0].exposure"),
     ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.exr"\ncolour = 1\n', "images[0].colour"),
     ('[[images]]\nscene = "builtin:sphere-diffuse"\nimage = "a.exr"\n[[images]]\nscene = "builtin:sphere-diffuse"\n'
      'image = "b/a.exr"\n', "images[1].label"),

@@ -87,6 +87,20 @@ def test_quarter_turn_about_the_ground_normal_keeps_the_leak():
     assert turned["outside"] == pytest.approx(still["outside"], rel=0.02)
 
 
+@pytest.mark.gl
+def test_an_oblique_turn_voxelises_the_turned_scene():
+    # the grid is sized to the voxelised objects' bounds: turned, the ground (corners x, z = +-2) and the box
+    # (x, z = +-0.5, height 1) span more along the largest axis, so the voxel grows by exactly that span's
+    # ratio (negative control: the unturned objects voxelised with turned probes would keep the unturned voxel)
+    ground = [[x, 0.0, z] for x in (-2.0, 2.0) for z in (-2.0, 2.0)]
+    box = [[x, y, z] for x in (-0.5, 0.5) for y in (0.0, 1.0) for z in (-0.5, 0.5)]
+    corners = np.array(ground + box)
+    turned_span = np.ptp(corners @ rotation_xyz((20.0, 25.0, 0.0)).T, axis=0).max()
+    (still,) = e10.thin_wall_leak((16,))
+    (turned,) = e10.thin_wall_leak((16,), rotate_deg=(20.0, 25.0, 0.0))
+    assert turned["voxel"] / still["voxel"] == pytest.approx(turned_span / 4.0, rel=1e-3)
+
+
 def test_settings_without_one_bounce_are_refused():
     # the energy table's one-bounce columns compare with the path tracer's depth 3
     with pytest.raises(ValueError, match="bounces must include 1"):
