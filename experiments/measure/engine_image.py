@@ -94,6 +94,14 @@ class EngineImage:
         return Render(rgb=np.asarray(rgb, np.float32), mask=mask, timings=dict(self.timings), meta=meta)
 
 
+def scene_exposure_problem(tonemap: str, exposure: float) -> str | None:
+    """What is wrong with an exposure given with `SCENE_TONEMAP` (the scene's transform has its own), or None."""
+    if tonemap == SCENE_TONEMAP and exposure != 1.0:
+        return (f"exposure {exposure:g} with tone mapping {SCENE_TONEMAP!r}: the scene's display transform has its "
+                "own ([tonemap] exposure); leave the image's exposure at 1")
+    return None
+
+
 def check_file(path: str | Path) -> Path:
     """`path` as a Path when it names a regular file; InputError (not found, or a folder) otherwise: checked
     before anything is inferred from its name."""
@@ -127,9 +135,8 @@ def read_engine_image(path: str | Path, scene, encoding: str = "linear", tonemap
         raise InputError(f"{path}: tone mapping {tonemap!r} is unknown; choose one of {', '.join(TONEMAPS)}")
     if not (isinstance(exposure, (int, float)) and math.isfinite(exposure) and exposure > 0):
         raise InputError(f"{path}: exposure {exposure!r} must be a finite number > 0")
-    if tonemap == SCENE_TONEMAP and exposure != 1.0:
-        raise InputError(f"{path}: exposure {exposure:g} with tone mapping {SCENE_TONEMAP!r}: the scene's display "
-                         "transform has its own ([tonemap] exposure); leave the image's exposure at 1")
+    if problem := scene_exposure_problem(tonemap, exposure):
+        raise InputError(f"{path}: {problem}")
     check_file(path)
     if suffix not in LINEAR_SUFFIXES and suffix not in DISPLAY_SUFFIXES:
         raise InputError(f"{path}: image suffix {suffix or '(none)'!r} is not read: linear radiance as .exr, .pfm "

@@ -240,12 +240,11 @@ class PosedObject:
     material: Material
 
 
-def thin_wall_probes(rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
+def thin_wall_probes(scene, rotate_deg: tuple[float, float, float] = (0.0, 0.0, 0.0)
                      ) -> tuple[list[PosedObject], np.ndarray, np.ndarray, np.ndarray]:
-    """The thin-wall scene turned about the origin (the centre of the box's floor) by rotation_xyz(rotate_deg):
-    its objects, the 16 probe points on the ground inside the box, the 16 on a ring around it outside, and the
-    ground's normal, all turned by the same rotation."""
-    scene = scenes.load("builtin:thin-wall")
+    """The thin-wall scene (`scene`, builtin:thin-wall) turned about the origin (the centre of the box's floor)
+    by rotation_xyz(rotate_deg): its objects, the 16 probe points on the ground inside the box, the 16 on a ring
+    around it outside, and the ground's normal, all turned by the same rotation."""
     r = rotation_xyz(rotate_deg)
     posed = [PosedObject(o.mesh.transformed(1.0, rotate_deg, (0.0, 0.0, 0.0)), o.material) for o in scene.objects]
     xs = np.linspace(-0.3, 0.3, 4)
@@ -266,7 +265,7 @@ def thin_wall_leak(resolutions: tuple[int, ...] = (32, 64), cascades: int = 1, o
     turns the whole scene (thin_wall_probes): walls oblique to the grid's axes, the environment unturned."""
     ctx = get_context()
     scene = scenes.load("builtin:thin-wall")
-    objects, inside, outside, up = thin_wall_probes(rotate_deg)
+    objects, inside, outside, up = thin_wall_probes(scene, rotate_deg)
     lo, hi = vct.scene_bounds(objects)
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)

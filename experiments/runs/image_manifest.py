@@ -108,9 +108,8 @@ def _entry(path: Path, i: int, item: Any) -> Entry:
     exposure = item.get("exposure", 1.0)
     if isinstance(exposure, bool) or not isinstance(exposure, (int, float)) or not (0 < exposure < float("inf")):
         raise InputError(f"{where}.exposure: {exposure!r}; must be a finite number > 0")
-    if tonemap == engine_image.SCENE_TONEMAP and exposure != 1.0:
-        raise InputError(f"{where}.exposure: {exposure!r} with tonemap \"scene\"; the scene's display transform "
-                         "has its own exposure, so this one must stay 1")
+    if problem := engine_image.scene_exposure_problem(tonemap, exposure):
+        raise InputError(f"{where}.exposure: {problem}")
     label = item.get("label", image.stem)
     if not isinstance(label, str) or not label.strip():
         raise InputError(f"{where}.label: {label!r}; must be a non-empty string")

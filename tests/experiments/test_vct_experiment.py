@@ -8,14 +8,13 @@ import dataclasses
 import numpy as np
 import pytest
 
+import scenes
 from experiments.paper import e10_voxel_cone_tracing as e10
 from scenes.environment.directions import rotation_xyz
 
 
 @pytest.mark.parametrize("spec", [spec for _, spec in e10.SCENES])
 def test_configs_are_direct_then_occlusion_and_interreflection_per_setting_then_the_ladder(spec):
-    import scenes
-
     cs = e10.configs(e10.QUICK, spec)
     assert cs[0] == {}
     n = 2 * len(e10.QUICK.grid)
@@ -60,7 +59,7 @@ def test_turned_thin_wall_probes_stay_on_the_turned_floor_inside_and_outside_the
     # the box's walls stand on the ground y = 0 at x, z = +-0.5 before turning; turned back by the rotation's
     # transpose, every probe must be on that ground (y = 0), the inside ones within the walls, the outside
     # ones beyond them, and the normal the ground's up
-    objects, inside, outside, up = e10.thin_wall_probes(rotate_deg)
+    objects, inside, outside, up = e10.thin_wall_probes(scenes.load("builtin:thin-wall"), rotate_deg)
     r = rotation_xyz(rotate_deg)
     ground = objects[0].mesh
     assert np.allclose((ground.positions.astype(np.float64) @ r)[:, 1], 0.0, atol=1e-6)
@@ -73,22 +72,28 @@ def test_turned_thin_wall_probes_stay_on_the_turned_floor_inside_and_outside_the
 
 def test_turned_thin_wall_probes_are_not_the_unturned_ones():
     # negative control of the test above: the turn moves the probes off the unturned ground
-    _, inside, _, up = e10.thin_wall_probes((20.0, 25.0, 0.0))
+    _, inside, _, up = e10.thin_wall_probes(scenes.load("builtin:thin-wall"), (20.0, 25.0, 0.0))
     assert np.abs(inside[:, 1]).max() > 0.05 and abs(up[1]) < 0.95
 
 
+@pytest.fixture(scope="module")
+def unturned_16() -> dict:
+    (row,) = e10.thin_wall_leak((16,))
+    return row
+
+
 @pytest.mark.gl
-def test_quarter_turn_about_the_ground_normal_keeps_the_leak():
+def test_quarter_turn_about_the_ground_normal_keeps_the_leak(unturned_16):
     # a quarter turn about y maps the box, the ground and both probe sets onto themselves (and the grid, centred
     # on bounds that do not change): the leak must not move beyond the voxelisation of the ground's triangles
-    (still,) = e10.thin_wall_leak((16,))
+    still = unturned_16
     (turned,) = e10.thin_wall_leak((16,), rotate_deg=(0.0, 90.0, 0.0))
     assert turned["leak"] == pytest.approx(still["leak"], rel=0.05, abs=1e-4)
     assert turned["outside"] == pytest.approx(still["outside"], rel=0.02)
 
 
 @pytest.mark.gl
-def test_an_oblique_turn_voxelises_the_turned_scene():
+def test_an_oblique_turn_voxelises_the_turned_scene(unturned_16):
     # the grid is sized to the voxelised objects' bounds: turned, the ground (corners x, z = +-2) and the box
     # (x, z = +-0.5, height 1) span more along the largest axis, so the voxel grows by exactly that span's
     # ratio (negative control: the unturned objects voxelised with turned probes would keep the unturned voxel)
@@ -96,9 +101,8 @@ def test_an_oblique_turn_voxelises_the_turned_scene():
     box = [[x, y, z] for x in (-0.5, 0.5) for y in (0.0, 1.0) for z in (-0.5, 0.5)]
     corners = np.array(ground + box)
     turned_span = np.ptp(corners @ rotation_xyz((20.0, 25.0, 0.0)).T, axis=0).max()
-    (still,) = e10.thin_wall_leak((16,))
     (turned,) = e10.thin_wall_leak((16,), rotate_deg=(20.0, 25.0, 0.0))
-    assert turned["voxel"] / still["voxel"] == pytest.approx(turned_span / 4.0, rel=1e-3)
+    assert turned["voxel"] / unturned_16["voxel"] == pytest.approx(turned_span / 4.0, rel=1e-3)
 
 
 def test_settings_without_one_bounce_are_refused():
