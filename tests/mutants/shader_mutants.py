@@ -248,6 +248,8 @@ MUTANTS: list[tuple[str, str, str, str]] = [
      "VCT: the brightest face as the normalisation's reference"),
     ("realtime/techniques/vct/vct_trace.glsl", "    if (b <= 0.0) return 1.0;\n", "\n",
      "VCT: fronts whose opposite face is black discounted"),
+    ("realtime/techniques/vct/vct_trace.glsl", "return facing < 0.0 ? vec4(0.0, 0.0, 0.0, s.a) : s;", "return s;",
+     "VCT: a texel showing a cone its lit surface's back adds that surface's light"),
     ("realtime/techniques/vct/vct_inject.comp", "L[f] += (1.0 - F) * kd / PI * done_E[k].rgb;",
      "L[f] += (1.0 - F) * kd * done_E[k].rgb;", "VCT: injection without 1/pi"),
     ("realtime/techniques/vct/vct_inject.comp", "put(f, q, cover[f / 2] * vec4(L[f], 1.0));",

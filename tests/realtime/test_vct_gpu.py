@@ -13,7 +13,8 @@
   kd / pi E(n) into its upper face and gathers nothing;
 - the level a cone sample reads is the one vct_math.sample_lod predicts (level-coded mips);
 - a wall lit on one side reads alike in all six orientations, and its dark side gathers nothing;
-- a lit plane seen from its front reads its radiance even on an axis where the face read is its back;
+- a lit plane seen from its front reads its radiance even on an axis where the face read is its back, and
+  a wall lit on one side, seen obliquely from its dark side, reads dark;
 - the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light;
 - opacity: a tilted plane covers each axis by |n_a| / |n|_inf; layers of normal y cut a cone by the same
   product at any angle; a cone alongside a wall passes; the column texture keeps a texel's most covered
@@ -753,6 +754,21 @@ def test_finer_read_sees_the_axis_column_not_its_neighbour(ctx):
     assert 0.5 < 0.9375 - 0.01
 
 
+def staircase_lit_toward_plus_x_plus_y(ctx, L: float, res: int = 32) -> VoxelScene:
+    """The plane x + y = 0 over blank_voxels' [-1, 1]^3 as a staircase of voxels (one per x column, at
+    y = res - 1 - x), opaque along x and y, its +X and +Y faces showing radiance L and its -X and -Y faces
+    black: a plane whose side of normal (1, 1, 0) / sqrt 2 is lit, mips built."""
+
+    vs = blank_voxels(ctx, res)
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    i = np.arange(res)
+    for f in range(4):  # +X, -X, +Y, -Y
+        faces[f, 0, i, res - 1 - i, :] = [L, L, L, 1.0] if f in (0, 2) else [0.0, 0.0, 0.0, 1.0]
+    vs.write_level0(faces)
+    vs.build_mips()
+    return vs
+
+
 @pytest.mark.parametrize("d", [(0.3, -1.0, 0.0), (-1.0, 0.3, 0.0)])
 def test_lit_plane_seen_from_its_front_reads_its_radiance_on_every_axis(ctx, d):
     """A plane x + y = 0 (a staircase of voxels, normal (1, 1, 0) / sqrt 2) showing radiance L toward its
@@ -761,14 +777,8 @@ def test_lit_plane_seen_from_its_front_reads_its_radiance_on_every_axis(ctx, d):
     plane's back, black. Seen along d the plane shows its front, radiance L, so the cone gathers L times its
     occlusion (within the fp16 mips, 1 %). Control (tests/mutants/shader_mutants.py): normalising by every
     face read's opacity, back included, gives L (1 - 0.3^2 / 1.09) = 0.917 L, beyond that tolerance."""
-    res, L = 32, 0.6
-    vs = blank_voxels(ctx, res)
-    faces = np.zeros((6, 1, res, res, res, 4), "f4")
-    i = np.arange(res)
-    for f in range(4):  # +X, -X, +Y, -Y
-        faces[f, 0, i, res - 1 - i, :] = [L, L, L, 1.0] if f in (0, 2) else [0.0, 0.0, 0.0, 1.0]
-    vs.write_level0(faces)
-    vs.build_mips()
+    L = 0.6
+    vs = staircase_lit_toward_plus_x_plus_y(ctx, L)
     n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
     u = np.asarray(d) / np.linalg.norm(d)
     r = vs.trace_cone(np.array([[0.3, 0.3, 0.013]]), u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
@@ -776,6 +786,31 @@ def test_lit_plane_seen_from_its_front_reads_its_radiance_on_every_axis(ctx, d):
     vs.release()
     assert r[3] > 0.95, r
     assert r[:3] / r[3] == pytest.approx([L] * 3, rel=0.01), r
+
+
+@pytest.mark.parametrize("d", [(1.0, -0.3, 0.0), (-0.3, 1.0, 0.0)])
+def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
+    """The voxels of the test above (+X and +Y faces lit L, -X and -Y black), now a two-sided wall whose side
+    of normal n = (1, 1, 0) / sqrt 2 is lit and whose other side is dark, seen from that dark side: the cone
+    starts at x + y < 0 and n.d = (d_x + d_y) / sqrt 2 = 0.7 / (1.044 sqrt 2) > 0. It blocks the cone (opacity
+    above 0.95) and shows it nothing, since the dark side faces it: gathered light under 1 % of L. On one axis
+    the cone reads the dark side's black face against d, on the other (d_y < 0, or d_x < 0) the lit side's
+    face, lit on that axis (n_a d_a < 0) though the lit side as a whole faces away (n.d > 0); the two axes'
+    coverages say which (vct_axis_facing). The test above is the positive control (the same voxels seen from
+    the lit side read L). Negative control (tests/mutants/shader_mutants.py): without the facing sum, the
+    black face is taken for a back and the lit face's light is divided by its own opacity only: the cone
+    gathers L."""
+    L = 0.6
+    vs = staircase_lit_toward_plus_x_plus_y(ctx, L)
+    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    u = np.asarray(d) / np.linalg.norm(d)
+    origin = np.array([-0.3, -0.3, 0.013])
+    assert u @ n > 0.0 and origin @ n < 0.0
+    r = vs.trace_cone(origin[None], u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
+                      (10.0 * n)[None], (-n)[None])[0]
+    vs.release()
+    assert r[3] > 0.95, r
+    assert np.all(r[:3] < 0.01 * L), r
 
 
 def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):

@@ -34,8 +34,9 @@ def describe(rt) -> dict:
     return {"vct": table}
 
 
-#: 1: the glossy terms scaled by the Phong lobe's share above the horizon (vct_math.lobe_above_horizon)
-MODEL_VERSION = 1
+#: 1: the glossy terms scaled by the Phong lobe's share above the horizon (vct_math.lobe_above_horizon);
+#: 2: a texel showing a cone its lit surface's back adds no light (vct_trace.glsl's vct_axis_facing)
+MODEL_VERSION = 2
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

@@ -24,7 +24,7 @@ uniform float vct_normal_voxels; // the origin's offset along the normal, in the
 // the cones' finer read is split into up to 2^VCT_FINE_SPLIT reads, VCT_FINE_SPLIT levels finer (vct_cone)
 #define VCT_FINE_SPLIT 2
 // a face read against the cone counts as a surface's back where it is at most this fraction of the face
-// the other way (vct_front)
+// the other way (vct_front, vct_axis_facing)
 #define VCT_BACK_RATIO 1e-3
 
 // The share of the normalised Phong lobe of exponent N about r above the surface (n . l > 0), cos_r = n . r
@@ -103,7 +103,8 @@ float vct_rho(vec4 f) {
 // has the far side's light on one axis, which the cone cannot see (inside a bowl whose outer wall shows 2 L,
 // the brightest as reference read up to 1.66 L at 64^3, the dominant 1.03 L). Only the
 // normalisation changes, never the numerator: the faces pointing along d add no light (a thin wall's dark
-// side stays black), and a face dark on both sides counts whole (a dark surface is opaque and black).
+// side stays black, for walls along the grid's axes; an oblique wall needs vct_axis_facing), and a face
+// dark on both sides counts whole (a dark surface is opaque and black).
 float vct_front(vec4 against, vec3 along, float rho_ref) {
     float a = max(against.r, max(against.g, against.b));
     float b = max(along.r, max(along.g, along.b));
@@ -112,10 +113,36 @@ float vct_front(vec4 against, vec3 along, float rho_ref) {
     return rho_ref > 0.0 ? clamp(vct_rho(against) / rho_ref, 0.0, 1.0) : 1.0;
 }
 
+// Which side of its lit surface a texel shows a cone along d (the sign of -n . d, n the lit side's normal),
+// one axis's term t_a: +1 where the face against d is lit and the face along d black (the lit side faces
+// the cone on this axis: n_a d_a < 0), -1 the other way round (n_a d_a > 0), 0 where both faces are lit (a
+// surface turning inside the texel) or both black (no side is told). vct_read sums the terms weighted by
+// |d_a| alpha_a and drops the texel's light where the sum is negative. The derivation: one plane of unit
+// normal n crossing a voxel covers axis a by alpha_a = |n_a| / |n|_inf (vct_inject.comp's coverage), and
+// t_a = -sign(n_a d_a) is which of the axis's two faces the lit side lights (the injection lights a face
+// only where its surface faces it), so sum_a t_a |d_a| alpha_a = -(sum_a n_a d_a) / |n|_inf = -n . d / |n|_inf.
+// A negative sum (n . d > 0) is a cone meeting the lit side from behind: what it sees there is the other
+// side, a thin wall's dark inner side (black faces against d on the axes where the lit side shows its
+// back). Without it, a wall oblique to the grid let a cone leaving the box through its dark side gather the
+// lit outer side through a minor axis's face (vct_front leaves the dark dominant face out of the
+// normalisation, a back by its look). The weights are |d_a|, not the read's d_a^2: for n ~ (1, 0.47, 0) and
+// d = (0.5, -0.866, 0), d_a^2 gives the wrong sign. The sum is exact for one plane in a level-0 voxel; the
+// mips composite the opacities front to back, so there it is approximate, most at grazing angles, and a
+// texel holding surfaces of several orientations mixes them: a coarse texel holding a wall the cone moves
+// away from (black against d, lit along d) can outweigh the fronts the cone does see in it.
+float vct_axis_facing(vec3 against, vec3 along) {
+    float a = max(against.r, max(against.g, against.b));
+    float b = max(along.r, max(along.g, along.b));
+    if (b > 0.0 && a <= VCT_BACK_RATIO * b) return -1.0;
+    if (a > 0.0 && b <= VCT_BACK_RATIO * a) return 1.0;
+    return 0.0;
+}
+
 // What a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing against d.
 // Returns (sum_a d_a^2 rgb_a, sum_a d_a^2 alpha_a) and, in `alphas`, each axis's face opacity alpha_a:
 // the step's transmittance combines these in the optical-depth domain (vct_cone). `front` is the part of
-// the weighted opacity that can carry light toward the cone (vct_front).
+// the weighted opacity that can carry light toward the cone (vct_front). The rgb is 0 where the texel shows
+// the cone its lit surface's back (vct_axis_facing).
 vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front) {
     float he = vct_half_extent * exp2(float(c));
     vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
@@ -133,7 +160,11 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     float rho_ref = wa.x >= wa.y && wa.x >= wa.z ? vct_rho(x) : (wa.y >= wa.z ? vct_rho(y) : vct_rho(z));
     front = w.x * alphas.x * vct_front(x, ox, rho_ref) + w.y * alphas.y * vct_front(y, oy, rho_ref)
           + w.z * alphas.z * vct_front(z, oz, rho_ref);
-    return w.x * x + w.y * y + w.z * z;
+    vec4 s = w.x * x + w.y * y + w.z * z;
+    vec3 ad = abs(d) * alphas;
+    float facing = ad.x * vct_axis_facing(x.rgb, ox) + ad.y * vct_axis_facing(y.rgb, oy)
+                 + ad.z * vct_axis_facing(z.rgb, oz);
+    return facing < 0.0 ? vec4(0.0, 0.0, 0.0, s.a) : s;
 }
 
 // Transmittance of a step ds along unit d through a texel of edge vs whose faces have opacities `alphas`
