@@ -45,8 +45,8 @@ column, split into up to four reads two levels finer: vct_trace.glsl derives bot
 wall). A sample's radiance is its faces' rgb over the opacity of those that can carry light toward the cone: a
 face black where the other way is lit is a surface's back on that axis, opaque but not counted (vct_front).
 A texel that shows the cone its lit surface's back (the sign of n.d, read from which face of each axis is lit,
-weighted by |d_a| alpha_a: exact for one plane) adds its opacity and no light (vct_axis_facing): a two-sided
-wall oblique to the grid, seen from its dark side, shows its dark side.
+weighted by |d_a| alpha_a: exact for one plane in a level-0 voxel) adds its opacity and no light
+(vct_axis_facing): a two-sided wall oblique to the grid, seen from its dark side, shows its dark side.
 The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
 the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
