@@ -74,11 +74,20 @@ class HostileCases:
     def __init__(self, spp: int, command_line: CommandLine):
         self.spp = spp
         self.command_line = command_line
-        self.tmp = Path(tempfile.mkdtemp(prefix="iblcheck-e6h-"))
+        # the working folder sits two levels inside a private one, so that what a case writes beside it (an
+        # output path escaping upwards) is seen, and nothing another process puts in the system's temporary
+        # folder is taken for it
+        self.tmp = Path(tempfile.mkdtemp(prefix="iblcheck-e6h-")) / "outer" / "work"
+        self.tmp.mkdir(parents=True)
 
     def cli(self, *args: str) -> tuple[int, str, str]:
         """(exit code, stdout, stderr) of `iblcheck ARGS`."""
         return run_cli(self.command_line, *args)
+
+    def _beside_work(self) -> set[str]:
+        """What the two private folders above the working folder hold, as 'folder/name'."""
+        return {f"{level.name}/{name}" for level in (self.tmp.parent, self.tmp.parent.parent)
+                for name in os.listdir(level)}
 
     # ------------------------------------------------------------------------- 1 escaping
     def escaping(self) -> list[dict]:
@@ -127,11 +136,11 @@ class HostileCases:
     def output_paths(self) -> list[dict]:
         rows = []
         scene = tiny_scene(self.tmp, "../../escape")
-        before = set(os.listdir(self.tmp.parent))
+        before = self._beside_work()
         with contextlib.chdir(self.tmp):
             code, out, err = self.cli("render", str(scene))
         written = sorted(p.name for p in self.tmp.glob("*-realtime.*"))
-        leaked = set(os.listdir(self.tmp.parent)) - before
+        leaked = self._beside_work() - before
         rows.append(_row("output paths", 'render without -o, name = "../../escape"',
                          "written as escape-realtime.exr/.png in the working directory",
                          f"exit {code}; wrote {', '.join(written)}; outside: {sorted(leaked) or 'nothing'}",
