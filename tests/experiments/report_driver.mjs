@@ -109,7 +109,7 @@ async function main() {
     if (cfg.synthetic) {
       await synthetic(page, cfg, result);
       result.violations = await page.evaluate(() => window.__violations);
-      process.stdout.write(JSON.stringify(result) + "\n");
+      await emit(result);
       return;
     }
     // open the page
@@ -286,7 +286,7 @@ async function main() {
     await browser.close().catch(() => {});
     if (server) server.close();
   }
-  process.stdout.write(JSON.stringify(result) + "\n");
+  await emit(result);
 }
 
 /** The hand-written report: the cases of the viewer's data handling, through the UI. */
@@ -362,6 +362,12 @@ async function synthetic(page, cfg, result) {
   }
   result.held = await page.evaluate(() => window.iblcheckViewer.held());
   result.many_message = await message();
+}
+
+/** The result as one JSON line on stdout, resolved once written: stdout is a pipe, where a write is
+ * asynchronous and process.exit() drops what is still queued (a result over the pipe's 64 KiB came back cut). */
+function emit(result) {
+  return new Promise((ok) => process.stdout.write(JSON.stringify(result) + "\n", ok));
 }
 
 main().then(
