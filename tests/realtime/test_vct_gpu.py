@@ -313,21 +313,27 @@ void main() {
 
 @pytest.fixture(scope="module")
 def level_coded(ctx):
-    """Every mip level k of every face holds radiance (k, 0, 0) and opacity 1, and the step is 4 cone
-    diameters: a cone stops at its first sample (1 - 1e-4^4 opaque), whose red is the level it read
-    (the mip-linear blend of two levels k and k + 1 at lod k + f is k + f)."""
+    """Every mip level k of every face holds radiance (k, 0, 0) and opacity 1, its normal the face's own
+    direction (every face shows a surface's front), and the step is 4 cone diameters: a cone stops at its
+    first sample (1 - 1e-4^4 opaque), whose red is the level it read (the mip-linear blend of two levels k
+    and k + 1 at lod k + f is k + f)."""
     res = 16
     vs = blank_voxels(ctx, res, step=4.0)
     fill = ctx.compute_shader(FILL_LEVEL)
-    for tex in vs.faces:
+    fill_normal = ctx.compute_shader(FILL_LEVEL.replace("rgba16f", "rgba8"))
+    for f, (tex, normal) in enumerate(zip(vs.faces, vs.normals, strict=True)):
         for k in range(vs.grid.levels):
             r = res >> k
-            tex.bind_to_image(0, read=False, write=True, level=k)
-            fill["size"] = (r, r, r)
-            fill["value"] = (float(k), 0.0, 0.0, 1.0)
-            fill.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
+            for prog, target, value in ((fill, tex, (float(k), 0.0, 0.0, 1.0)),
+                                        (fill_normal, normal, (*((128.0 + 127.0 * np.array(vct_math.FACES[f]))
+                                                                 / 255.0), 1.0))):
+                target.bind_to_image(0, read=False, write=True, level=k)
+                prog["size"] = (r, r, r)
+                prog["value"] = tuple(float(x) for x in value)
+                prog.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
     ctx.memory_barrier()
     fill.release()
+    fill_normal.release()
     yield vs
     vs.release()
 
@@ -754,17 +760,22 @@ def test_finer_read_sees_the_axis_column_not_its_neighbour(ctx):
     assert 0.5 < 0.9375 - 0.01
 
 
-def staircase_lit_toward_plus_x_plus_y(ctx, L: float, res: int = 32) -> VoxelScene:
+def staircase_lit_toward_plus_x_plus_y(ctx, L: float, res: int = 32, two_sided: bool = True) -> VoxelScene:
     """The plane x + y = 0 over blank_voxels' [-1, 1]^3 as a staircase of voxels (one per x column, at
     y = res - 1 - x), opaque along x and y, its +X and +Y faces showing radiance L and its -X and -Y faces
-    black: a plane whose side of normal (1, 1, 0) / sqrt 2 is lit, mips built."""
+    black: a plane whose side of normal n = (1, 1, 0) / sqrt 2 is lit, mips built. The +X and +Y faces hold
+    normal n; the -X and -Y faces hold -n (`two_sided`: the dark side is a surface facing them) or none (a
+    one-sided plane: nothing faces -X or -Y)."""
 
     vs = blank_voxels(ctx, res)
     faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    normals = np.zeros((6, 1, res, res, res, 3), "f4")
     i = np.arange(res)
+    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
     for f in range(4):  # +X, -X, +Y, -Y
         faces[f, 0, i, res - 1 - i, :] = [L, L, L, 1.0] if f in (0, 2) else [0.0, 0.0, 0.0, 1.0]
-    vs.write_level0(faces)
+        normals[f, 0, i, res - 1 - i, :] = n if f in (0, 2) else (-n if two_sided else 0.0)
+    vs.write_level0(faces, normals)
     vs.build_mips()
     return vs
 
@@ -790,16 +801,16 @@ def test_lit_plane_seen_from_its_front_reads_its_radiance_on_every_axis(ctx, d):
 
 @pytest.mark.parametrize("d", [(1.0, -0.3, 0.0), (-0.3, 1.0, 0.0)])
 def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
-    """The voxels of the test above (+X and +Y faces lit L, -X and -Y black), now a two-sided wall whose side
-    of normal n = (1, 1, 0) / sqrt 2 is lit and whose other side is dark, seen from that dark side: the cone
+    """The voxels of the test above (+X and +Y faces lit L, -X and -Y black), a two-sided wall whose side of
+    normal n = (1, 1, 0) / sqrt 2 is lit and whose other side is dark, seen from that dark side: the cone
     starts at x + y < 0 and n.d = (d_x + d_y) / sqrt 2 = 0.7 / (1.044 sqrt 2) > 0. It blocks the cone (opacity
     above 0.95) and shows it nothing, since the dark side faces it: gathered light under 1 % of L. On one axis
     the cone reads the dark side's black face against d, on the other (d_y < 0, or d_x < 0) the lit side's
-    face, lit on that axis (n_a d_a < 0) though the lit side as a whole faces away (n.d > 0); the two axes'
-    coverages say which (vct_axis_facing). The test above is the positive control (the same voxels seen from
-    the lit side read L). Negative control (tests/mutants/shader_mutants.py): without the facing sum, the
-    black face is taken for a back and the lit face's light is divided by its own opacity only: the cone
-    gathers L."""
+    face, lit on that axis (n_a d_a < 0) though the lit side as a whole faces away (n.d > 0). Two rules each
+    keep that light out here: the face's stored normal n faces away from the cone (vct_read), and the facing
+    sum over the two axes' coverages is negative (vct_axis_facing); the one-sided test below and
+    tests/experiments' oblique leak test each need one of them alone. The test above is the positive control
+    (the same voxels seen from the lit side read L)."""
     L = 0.6
     vs = staircase_lit_toward_plus_x_plus_y(ctx, L)
     n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
@@ -811,6 +822,80 @@ def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
     vs.release()
     assert r[3] > 0.95, r
     assert np.all(r[:3] < 0.01 * L), r
+
+
+@pytest.mark.parametrize("d", [(1.0, -0.3, 0.0), (-0.3, 1.0, 0.0)])
+def test_one_sided_plane_seen_from_behind_reads_dark(ctx, d):
+    """The staircase plane of the tests above, one-sided (no surface faces -X or -Y), seen from behind
+    (n.d > 0): it blocks the cone (opacity above 0.95) and shows it nothing (under 1 % of L). On the axis with
+    n_a d_a < 0 the face against d is the plane's lit face, but its stored normal n faces away from the cone
+    (n.d > 0), so it adds its opacity only; on the other axis the face against d is black and no surface faces
+    it, which the facing sum leaves out (vct_axis_facing: 0), so only the face's normal keeps the light out.
+    Negative control (tests/mutants/shader_mutants.py): every face taken to face the cone, the lit face's light
+    reaches it (0.6 L and more)."""
+    L = 0.6
+    vs = staircase_lit_toward_plus_x_plus_y(ctx, L, two_sided=False)
+    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    u = np.asarray(d) / np.linalg.norm(d)
+    origin = np.array([-0.3, -0.3, 0.013])
+    assert u @ n > 0.0 and origin @ n < 0.0
+    r = vs.trace_cone(origin[None], u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
+                      (10.0 * n)[None], (-n)[None])[0]
+    vs.release()
+    assert r[3] > 0.95, r
+    assert np.all(r[:3] < 0.01 * L), r
+
+
+def test_one_sided_back_beside_a_front_does_not_hide_the_front(ctx):
+    """Every voxel of the grid holds two one-sided surfaces: one facing +X (its +X face lit L, normal +X; its -X
+    face black, no surface facing it) and one facing -Y (its -Y face lit L, normal -Y; its +Y face black, none
+    facing it), opaque along x and y: every level reads alike. A cone along d = (0.8, 0.6, 0) meets the first
+    from behind (its -X face: black, nothing facing the cone) and the second from the front (its -Y face: lit,
+    normal -Y, d_y > 0). The first is the back of a one-sided surface, not the dark side of a wall, so it must
+    not cancel the second's light (as a room's side wall does not darken the floor a cone leaving it sees in
+    the same coarse texel): the cone gathers L times its opacity (the normalisation leaves the back out,
+    vct_front), within the fp16 texels' 1 %. Negative control (tests/mutants/shader_mutants.py): a black face
+    against a lit one taken as a wall's dark side whatever faces it, the facing sum -0.8 + 0.6 drops the
+    texel's light and the cone gathers 0."""
+    res, L = 16, 0.5
+    vs = blank_voxels(ctx, res)
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    normals = np.zeros((6, 1, res, res, res, 3), "f4")
+    faces[0:4, 0] = [0.0, 0.0, 0.0, 1.0]
+    faces[0, 0] = [L, L, L, 1.0]  # +X lit
+    faces[3, 0] = [L, L, L, 1.0]  # -Y lit
+    normals[0, 0] = [1.0, 0.0, 0.0]
+    normals[3, 0] = [0.0, -1.0, 0.0]
+    vs.write_level0(faces, normals)
+    vs.build_mips()
+    d = np.array([0.8, 0.6, 0.0])
+    r = vs.trace_cone(np.array([[0.013, 0.021, 0.017]]), d[None], np.array([0.3]), np.array([vs.grid.voxel_size]),
+                      np.array([[0.0, -10.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))[0]
+    vs.release()
+    assert r[3] > 0.95, r
+    assert r[:3] / r[3] == pytest.approx([L] * 3, rel=0.01), r
+
+
+def test_gpu_normal_mip_matches_numpy(ctx):
+    """vct_normal_mip.comp against vct_math.normal_mip on random normals (one face in four holding none) and
+    random opacities, at level 1: equal within the RGBA8 storage's quantisation (2 / 127 per component)."""
+    rng = np.random.default_rng(7)
+    res = 8
+    vs = blank_voxels(ctx, res)
+    faces = np.zeros((6, 1, res, res, res, 4), "f4")
+    faces[..., 3] = rng.uniform(0.0, 1.0, faces.shape[:-1])
+    normals = rng.normal(size=(6, 1, res, res, res, 3))
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    normals[rng.uniform(size=normals.shape[:-1]) < 0.25] = 0.0
+    vs.write_level0(faces, normals.astype("f4"))
+    vs.build_mips()
+    stored_n = vs.read_normals(0)[:, 0].astype(np.float64)
+    stored_a = vs.read_faces(0)[:, 0, ..., 3].astype(np.float64)
+    gpu = vs.read_normals(1)[:, 0]
+    vs.release()
+    want = vct_math.normal_mip(stored_n, stored_a)
+    assert np.abs(stored_n - normals[:, 0]).max() < 1.0 / 127.0  # the storage itself
+    assert np.abs(gpu - want).max() < 2.0 / 127.0
 
 
 def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):

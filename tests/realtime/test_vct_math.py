@@ -254,6 +254,36 @@ def test_mip_radiance_leaves_out_a_surfaces_back_columns(monkeypatch):
     assert vct_math.anisotropic_mip(faces)[0, 0, 0, 0, 0] == pytest.approx(0.25)
 
 
+def test_normal_mip_keeps_the_front_surfaces_normal():
+    """A 2x2x2 block whose +X children (x = 1) hold an opaque surface of normal n1 and whose -X children (x = 0) a
+    surface of normal n2, both facing +X (n_x > 0): seen from +X the front children hide the back ones, so the
+    +X face's mipped normal is n1; with the front half transparent (alpha 1/2) it is the direction of
+    n1 / 2 + n2 / 2 (the back's opacity 1 times the front's transmittance 1/2). Negative control: the children
+    composited in the -X face's order give n2."""
+    n1 = np.array([0.8, 0.6, 0.0])
+    n2 = np.array([0.6, 0.0, -0.8])
+    normals = np.zeros((6, 2, 2, 2, 3))
+    normals[0, 1], normals[0, 0] = n1, n2
+    normals[1] = normals[0]  # the same surfaces stored on the -X face: its front is the x = 0 half
+    alphas = np.ones((6, 2, 2, 2))
+    m = vct_math.normal_mip(normals, alphas)[:, 0, 0, 0]
+    assert m[0] == pytest.approx(n1)
+    assert m[1] == pytest.approx(n2)  # the control: the other order
+    alphas[0, 1] = 0.5
+    want = (n1 + n2) / np.linalg.norm(n1 + n2)
+    assert vct_math.normal_mip(normals, alphas)[0, 0, 0, 0] == pytest.approx(want)
+
+
+def test_normal_mip_is_zero_where_no_surface_faces_the_face():
+    """No child holds a normal on the +Y face (the block's surfaces all face +X): the +Y face's mipped normal is 0,
+    however opaque the children (opacity alone tells no direction); the +X face's is +X."""
+    normals = np.zeros((6, 2, 2, 2, 3))
+    normals[0] = [1.0, 0.0, 0.0]
+    m = vct_math.normal_mip(normals, np.ones((6, 2, 2, 2)))[:, 0, 0, 0]
+    assert np.all(m[2] == 0.0)
+    assert m[0] == pytest.approx([1.0, 0.0, 0.0])
+
+
 def test_cap_visibility_and_surface_bound():
     assert vct_math.cap_visibility(0.5, 1.0) == pytest.approx(0.75)
     assert vct_math.surface_voxel_bound(1.0, 0.1) > 4 * math.pi / 0.01

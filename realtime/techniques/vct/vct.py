@@ -9,10 +9,11 @@ box with a 10% margin). `cascades = 1` is a plain 3D texture over the same exten
 
 Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z: what leaves a voxel
 toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' coverage along the face's
-axis), the cascades stacked along z, each face with its anisotropic mip chain, and one RGBA16F column
-texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read: 7 x 8 = 56 bytes per
-voxel at every level (the seed stores the finest level isotropically; here it is six-face too, so that a
-thin wall's two sides stay apart).
+axis), the cascades stacked along z, each face with its anisotropic mip chain; one RGBA16F column
+texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read; and six RGBA8 face-normal
+textures (the mean normal of the surfaces facing each face, bytes 128 + 127 n, a = 1 where there is one),
+mipped like the faces: 7 x 8 + 6 x 4 = 80 bytes per voxel at every level (the seed stores the finest level
+isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
 
 Every frame (timed `voxelize`, its mips as `mip`):
 1. voxelise (vct_voxelize.comp): one compute invocation per triangle and cascade, a conservative
@@ -20,7 +21,9 @@ Every frame (timed `voxelize`, its mips as `mip`):
    (kd, ks, exponent, f0, Schlick flag: `reflectance_of`) and per face direction a_f the weight
    max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
    would face nowhere);
-2. coverage (vct_inject.comp, inject = 0): each face's alpha = the surface's coverage of the voxel's
+2. face normals (vct_normals.comp): each face's mean normal of the surfaces facing it, mipped
+   (vct_normal_mip.comp) with the faces' opacities after each build of the face mips;
+   coverage (vct_inject.comp, inject = 0): each face's alpha = the surface's coverage of the voxel's
    cross-section along the face's axis (|n_a| / |n|_inf: a plane is transparent along itself), then its
    mips; the same coverages into the column texture (one channel per axis), max-mipped
    (vct_column_mip.comp): the most covered column of a texel, the cones' finer read;
@@ -44,9 +47,11 @@ that and the finer level's whose texel is the step, read from the column texture
 column, split into up to four reads two levels finer: vct_trace.glsl derives both; no leak through a one-voxel
 wall). A sample's radiance is its faces' rgb over the opacity of those that can carry light toward the cone: a
 face black where the other way is lit is a surface's back on that axis, opaque but not counted (vct_front).
-A texel that shows the cone its lit surface's back (the sign of n.d, read from which face of each axis is lit,
-weighted by |d_a| alpha_a: exact for one plane in a level-0 voxel) adds its opacity and no light
-(vct_axis_facing): a two-sided wall oblique to the grid, seen from its dark side, shows its dark side.
+A face adds light only where its stored normal faces the cone (m . d < 0: a plane oblique to the grid, seen
+from behind, shows no light on a minor axis). A texel that shows the cone a two-sided wall's dark side (the sign
+of n.d, read from which face of each axis is lit and which black face holds a surface facing the cone,
+weighted by |d_a| alpha_a: exact for one wall in a level-0 voxel) adds its opacity and no light
+(vct_axis_facing): inside a closed box, the far walls' lit outer sides in a coarse texel stay hidden.
 The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
 the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the
@@ -97,8 +102,11 @@ COLUMN_UNIT = FACE_UNIT0 + 6
 ENV_UNIT = COLUMN_UNIT + 1
 #: image unit the coverage pass writes the column texture through (0..5: the faces)
 COLUMN_IMAGE = 6
+#: texture units of the six face-normal textures (after the environment's chain)
+NORMAL_UNIT0 = ENV_UNIT + 1
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
-BYTES_PER_VOXEL = 7 * 8  # six RGBA16F faces and the RGBA16F column texture
+#: six RGBA16F faces, the RGBA16F column texture and six RGBA8 face normals
+BYTES_PER_VOXEL = 7 * 8 + 6 * 4
 #: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
 VOXEL_INTS = 34
 FACE_INTS0 = 10
@@ -203,6 +211,13 @@ class VoxelScene:
         self.columns = ctx.texture3d(size, 4, dtype="f2")
         self.columns.build_mipmaps()
         self.columns.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
+        self.normals = []
+        for _ in range(6):
+            tex = ctx.texture3d(size, 4, dtype="f1")  # RGBA8: bytes 128 + 127 n, a = 1 (0: no normal)
+            tex.build_mipmaps()
+            tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
+            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+            self.normals.append(tex)
         self.mip_levels = self.grid.levels
         here = __package__
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
@@ -210,7 +225,10 @@ class VoxelScene:
         env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
         self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES + env_defines,
                                                             package=here))
+        self.normals_prog = ctx.compute_shader(shader_source("vct_normals.comp", COMPUTE_DEFINES, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
+        self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", COMPUTE_DEFINES,
+                                                                package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         self.probe_prog = None
         self.cone_prog = None
@@ -232,6 +250,7 @@ class VoxelScene:
         R = self.resolution
         self.voxelize()
         for c in range(self.count):
+            self.write_normals(c)
             self.inject(c, 0, sh_buffer)
         t0 = time.perf_counter()
         self.build_mips()
@@ -260,6 +279,18 @@ class VoxelScene:
             p.run(groups(self.triangle_count, 64))
             self.ctx.memory_barrier()
 
+    def write_normals(self, cascade: int) -> None:
+        """Level 0 of the six face-normal textures of one cascade (vct_normals.comp)."""
+        p = self.normals_prog
+        self.scratch[cascade].bind_to_storage_buffer(1)
+        for f, tex in enumerate(self.normals):
+            tex.bind_to_image(f, read=False, write=True, level=0)
+        p["cascade"] = cascade
+        p["resolution"] = self.resolution
+        g = groups(self.resolution, 4)
+        p.run(g, g, g)
+        self.ctx.memory_barrier()
+
     def inject(self, cascade: int, mode: int, sh_buffer: moderngl.Buffer) -> None:
         p = self.inject_prog
         self.bind_trace(p)
@@ -281,7 +312,7 @@ class VoxelScene:
         self.ctx.memory_barrier()
 
     def build_mips(self) -> None:
-        """The six faces' anisotropic mips and the column texture's."""
+        """The six faces' anisotropic mips, their normals' and the column texture's."""
         self.build_column_mips()
         p = self.mip_prog
         R = self.resolution
@@ -292,6 +323,22 @@ class VoxelScene:
                 tex.bind_to_image(0, read=True, write=False, level=level - 1)
                 tex.bind_to_image(1, read=False, write=True, level=level)
                 self.faces[f ^ 1].bind_to_image(2, read=True, write=False, level=level - 1)  # the opposite face
+                p["axis"] = f // 2
+                p["sign_"] = 1 if f % 2 == 0 else -1
+                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
+        self.build_normal_mips()
+
+    def build_normal_mips(self) -> None:
+        """The face normals' mips (vct_normal_mip.comp), weighted by the faces' opacities: after theirs."""
+        p = self.normal_mip_prog
+        for level in range(1, self.mip_levels):
+            r = self.resolution >> level
+            p["dst_size"] = (r, r, r * self.count)
+            for f, tex in enumerate(self.normals):
+                tex.bind_to_image(0, read=True, write=False, level=level - 1)
+                tex.bind_to_image(1, read=False, write=True, level=level)
+                self.faces[f].bind_to_image(2, read=True, write=False, level=level - 1)
                 p["axis"] = f // 2
                 p["sign_"] = 1 if f % 2 == 0 else -1
                 p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
@@ -312,6 +359,9 @@ class VoxelScene:
         for f, tex in enumerate(self.faces):
             tex.use(FACE_UNIT0 + f)
             set_uniform(prog, f"vct_face_{FACE_NAMES[f]}", FACE_UNIT0 + f)
+        for f, tex in enumerate(self.normals):
+            tex.use(NORMAL_UNIT0 + f)
+            set_uniform(prog, f"vct_normal_{FACE_NAMES[f]}", NORMAL_UNIT0 + f)
         self.columns.use(COLUMN_UNIT)
         set_uniform(prog, "vct_columns", COLUMN_UNIT)
         g = self.grid
@@ -350,9 +400,16 @@ class VoxelScene:
         """(C, R_L, R_L, R_L, 3) float32 indexed [cascade, x, y, z, axis]: the column texture at one mip level."""
         return self._read_textures([self.columns], level)[0, ..., :3]
 
-    def _read_textures(self, textures, level: int) -> np.ndarray:
+    def read_normals(self, level: int = 0) -> np.ndarray:
+        """(6, C, R_L, R_L, R_L, 3) float32 indexed [face, cascade, x, y, z, xyz]: the face normals at one mip
+        level (0 where no surface faces the face's direction)."""
+        v = self._read_textures(self.normals, level, rgba8=True)
+        return np.where(v[..., 3:4] > 0.5, (255.0 * v[..., :3] - 128.0) / 127.0, 0.0).astype("f4")
+
+    def _read_textures(self, textures, level: int, rgba8: bool = False) -> np.ndarray:
         r = self.resolution >> level
-        prog = self.ctx.compute_shader(shader_source("vct_dump.comp", package=__package__))
+        prog = self.ctx.compute_shader(shader_source("vct_dump.comp", ("DUMP_RGBA8",) if rgba8 else (),
+                                                     package=__package__))
         buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
         out = []
         for tex in textures:
@@ -367,11 +424,21 @@ class VoxelScene:
         prog.release()
         return np.stack(out)
 
-    def write_level0(self, faces: np.ndarray) -> None:
-        """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba]."""
+    def write_level0(self, faces: np.ndarray, normals: np.ndarray | None = None) -> None:
+        """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba], and of the face
+        normals from (6, C, R, R, R, 3) unit vectors or 0 for none (None: each face's own direction wherever the face is
+        opaque, 0 elsewhere: surfaces along the grid's axes, each facing every face that holds it)."""
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
             tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
+        if normals is None:
+            normals = np.where(faces[..., 3:4] > 0.0, np.asarray(vct_math.FACES, "f4")[:, None, None, None, None],
+                               0.0)
+        for f, tex in enumerate(self.normals):
+            some = np.any(normals[f] != 0.0, axis=-1, keepdims=True)
+            stored = np.concatenate([np.round(128.0 + 127.0 * np.clip(normals[f], -1.0, 1.0)), 255.0 * some], axis=-1)
+            stored = stored.astype(np.uint8)
+            tex.write(np.ascontiguousarray(stored.transpose(0, 3, 2, 1, 4).reshape(-1)).tobytes())
         # the column texture along each axis: the larger opacity of its two faces
         occ = np.zeros(faces.shape[1:], "f4")
         occ[..., :3] = np.maximum(faces[0::2, ..., 3], faces[1::2, ..., 3]).transpose(1, 2, 3, 4, 0)
@@ -438,8 +505,9 @@ class VoxelScene:
                         "bounces": self.bounces}}
 
     def release(self) -> None:
-        for r in [self.triangles, *self.scratch, *self.faces, self.columns, self.voxelize_prog, self.inject_prog,
-                  self.mip_prog, self.column_mip_prog, self.probe_prog, self.cone_prog]:
+        for r in [self.triangles, *self.scratch, *self.faces, *self.normals, self.columns, self.voxelize_prog,
+                  self.normals_prog, self.inject_prog, self.mip_prog, self.normal_mip_prog, self.column_mip_prog,
+                  self.probe_prog, self.cone_prog]:
             if r is not None:
                 r.release()
 

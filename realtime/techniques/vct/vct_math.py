@@ -14,6 +14,8 @@ or the GPU side needs without GL.
 - `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged, the radiance
   over the opacity of the pairs that are not a surface's back),
   the reference the GPU's vct_mip.comp is tested against.
+- `normal_mip`: one level of the six face-normal textures' mip (the normal of what a viewer on each face's side
+  sees, weighted as the faces composite their opacity), the reference for vct_normal_mip.comp.
 - `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
 """
 
@@ -265,6 +267,28 @@ def anisotropic_mip(faces: np.ndarray) -> np.ndarray:
         scale = texel[..., 3:4] / np.where(lit, front_alpha[..., None], 1.0)
         texel[..., :3] = np.where(lit, pair[..., :3] * scale, texel[..., :3])
         out.append(texel)
+    return np.stack(out)
+
+
+def normal_mip(normals: np.ndarray, alphas: np.ndarray) -> np.ndarray:
+    """One level of the face normals' mip (vct_normal_mip.comp): normals (6, R, R, R, 3) indexed [face, x, y, z,
+    xyz], unit vectors or 0 where no surface faces the face's direction, and the faces' opacities alphas
+    (6, R, R, R) -> (6, R/2, R/2, R/2, 3). Face f (direction s e_a): along axis a the child on the s side is in
+    front, m = a_front n_front + (1 - a_front) a_back n_back (a child with no normal still hides what is behind
+    it), summed over the four pairs and normalised; 0 where the sum is 0."""
+    normals = np.asarray(normals, dtype=np.float64)
+    alphas = np.clip(np.asarray(alphas, dtype=np.float64), 0.0, 1.0)
+    out = []
+    for f, direction in enumerate(FACES):
+        axis = int(np.flatnonzero(direction)[0])
+        lo_n, hi_n = _halves(normals[f], axis)
+        lo_a, hi_a = _halves(alphas[f], axis)
+        (fn, fa), (bn, ba) = ((hi_n, hi_a), (lo_n, lo_a)) if direction[axis] > 0 else ((lo_n, lo_a), (hi_n, hi_a))
+        pair = fa[..., None] * fn + ((1.0 - fa) * ba)[..., None] * bn
+        for a in (x for x in range(3) if x != axis):
+            pair = sum(_halves(pair, a))
+        length = np.linalg.norm(pair, axis=-1, keepdims=True)
+        out.append(np.where(length > 1e-6, pair / np.maximum(length, 1e-300), 0.0))
     return np.stack(out)
 
 
