@@ -809,8 +809,9 @@ def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
     face, lit on that axis (n_a d_a < 0) though the lit side as a whole faces away (n.d > 0). Two rules each
     keep that light out here: the face's stored normal n faces away from the cone (vct_read), and the facing
     sum over the two axes' coverages is negative (vct_axis_facing); the one-sided test below and
-    tests/experiments' oblique leak test each need one of them alone. The test above is the positive control
-    (the same voxels seen from the lit side read L)."""
+    tests/experiments' oblique leak test each need one of them alone, and no single shader mutant fails this
+    one: it guards the case as a regression check. The test above is the positive control (the same voxels
+    seen from the lit side read L)."""
     L = 0.6
     vs = staircase_lit_toward_plus_x_plus_y(ctx, L)
     n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
@@ -878,7 +879,9 @@ def test_one_sided_back_beside_a_front_does_not_hide_the_front(ctx):
 
 def test_gpu_normal_mip_matches_numpy(ctx):
     """vct_normal_mip.comp against vct_math.normal_mip on random normals (one face in four holding none) and
-    random opacities, at level 1: equal within the RGBA8 storage's quantisation (2 / 127 per component)."""
+    random opacities, at level 1: equal within the RGBA8 storage's quantisation (2 / 127 per component).
+    Negative control (tests/mutants/shader_mutants.py): the children composited in the opposite face's order
+    (the opacities differ per face, so the order shows)."""
     rng = np.random.default_rng(7)
     res = 8
     vs = blank_voxels(ctx, res)
@@ -902,8 +905,9 @@ def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):
     """bowl-diffuse voxelised and injected, then every face the injection lit set to radiance L (times its
     coverage, premultiplied) and the mips rebuilt: the bowl's inside shows L everywhere, so a cone gathers L
     times its opacity wherever it meets the inside, E = pi L (1 - V) for the V the same cones read (the
-    enclosure test's identity on a curved surface, whose voxels' faces are lit on some axes only). Measured
-    0.81 to 1.00 of it at 64^3 (mips mixing the wall's front and back on an axis): within [0.78, 1.02].
+    enclosure test's identity on a curved surface, whose voxels' faces are lit on some axes only), the face
+    normals the voxeliser's. Measured 0.95 to 1.00 of it at 64^3 (mips mixing the wall's front and back on an
+    axis): within [0.78, 1.02].
     Control (tests/mutants/shader_mutants.py): the surface's back faces counted in the radiance's
     normalisation read 0.70 on the wall at 40 degrees."""
     scene = scenes.load("builtin:bowl-diffuse")  # inner radius 0.75, centre 0.425 up
@@ -913,7 +917,7 @@ def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):
     f = vs.read_faces(0)
     lit = f[..., :3].max(-1) > 0.0
     f[..., :3] = np.where(lit[..., None], L * f[..., 3:4], 0.0)
-    vs.write_level0(f.astype("f4"))
+    vs.write_level0(f.astype("f4"), vs.read_normals(0))
     vs.build_mips()
     theta = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
     d = np.stack([0.3 * np.sin(theta), -np.cos(theta), math.sqrt(1.0 - 0.09) * np.sin(theta)], -1)

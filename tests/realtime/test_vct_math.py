@@ -258,17 +258,19 @@ def test_normal_mip_keeps_the_front_surfaces_normal():
     """A 2x2x2 block whose +X children (x = 1) hold an opaque surface of normal n1 and whose -X children (x = 0) a
     surface of normal n2, both facing +X (n_x > 0): seen from +X the front children hide the back ones, so the
     +X face's mipped normal is n1; with the front half transparent (alpha 1/2) it is the direction of
-    n1 / 2 + n2 / 2 (the back's opacity 1 times the front's transmittance 1/2). Negative control: the children
-    composited in the -X face's order give n2."""
+    n1 / 2 + n2 / 2 (the back's opacity 1 times the front's transmittance 1/2). The -X face holds the same two
+    surfaces' other sides, normals mirrored in x (facing -X): its front is the x = 0 half, so it reads n2's
+    mirror; that is also the negative control, the children composited in the other order."""
     n1 = np.array([0.8, 0.6, 0.0])
     n2 = np.array([0.6, 0.0, -0.8])
+    mirror = np.array([-1.0, 1.0, 1.0])
     normals = np.zeros((6, 2, 2, 2, 3))
     normals[0, 1], normals[0, 0] = n1, n2
-    normals[1] = normals[0]  # the same surfaces stored on the -X face: its front is the x = 0 half
+    normals[1, 1], normals[1, 0] = n1 * mirror, n2 * mirror
     alphas = np.ones((6, 2, 2, 2))
     m = vct_math.normal_mip(normals, alphas)[:, 0, 0, 0]
     assert m[0] == pytest.approx(n1)
-    assert m[1] == pytest.approx(n2)  # the control: the other order
+    assert m[1] == pytest.approx(n2 * mirror)
     alphas[0, 1] = 0.5
     want = (n1 + n2) / np.linalg.norm(n1 + n2)
     assert vct_math.normal_mip(normals, alphas)[0, 0, 0, 0] == pytest.approx(want)
@@ -276,7 +278,7 @@ def test_normal_mip_keeps_the_front_surfaces_normal():
 
 def test_normal_mip_is_zero_where_no_surface_faces_the_face():
     """No child holds a normal on the +Y face (the block's surfaces all face +X): the +Y face's mipped normal is 0,
-    however opaque the children (opacity alone tells no direction); the +X face's is +X."""
+    however opaque the children (opacity alone tells no direction); the +X face's is +X, the positive control."""
     normals = np.zeros((6, 2, 2, 2, 3))
     normals[0] = [1.0, 0.0, 0.0]
     m = vct_math.normal_mip(normals, np.ones((6, 2, 2, 2)))[:, 0, 0, 0]

@@ -162,7 +162,7 @@ def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
     radiance = np.where(outer, outer_radiance, 1.0)[None, None, ..., None]
     lit = f[..., :3].max(-1) > 0.0
     f[..., :3] = np.where(lit[..., None], radiance * f[..., 3:4], 0.0)
-    vs.write_level0(f.astype("f4"))
+    vs.write_level0(f.astype("f4"), vs.read_normals(0))
     vs.build_mips()
     return vs
 

@@ -49,8 +49,8 @@ wall). A sample's radiance is its faces' rgb over the opacity of those that can 
 face black where the other way is lit is a surface's back on that axis, opaque but not counted (vct_front).
 A face adds light only where its stored normal faces the cone (m . d < 0: a plane oblique to the grid, seen
 from behind, shows no light on a minor axis). A texel that shows the cone a two-sided wall's dark side (the sign
-of n.d, read from which face of each axis is lit and which black face holds a surface facing the cone,
-weighted by |d_a| alpha_a: exact for one wall in a level-0 voxel) adds its opacity and no light
+of n.d, read from which face of each axis is lit and which black face holds a normal, a surface facing the
+cone on that axis, weighted by |d_a| alpha_a: exact for one wall in a level-0 voxel) adds its opacity and no light
 (vct_axis_facing): inside a closed box, the far walls' lit outer sides in a coarse texel stay hidden.
 The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
@@ -259,7 +259,7 @@ class VoxelScene:
             for c in range(self.count):
                 self.inject(c, 1 if bounce == 1 else 2, sh_buffer)
             t0 = time.perf_counter()
-            self.build_mips()
+            self.build_mips(normals=False)
             mip_ms += self._finish_ms(t0)
         del R
         ctx.memory_barrier()
@@ -311,8 +311,9 @@ class VoxelScene:
         p.run(g, g, g)
         self.ctx.memory_barrier()
 
-    def build_mips(self) -> None:
-        """The six faces' anisotropic mips, their normals' and the column texture's."""
+    def build_mips(self, normals: bool = True) -> None:
+        """The six faces' anisotropic mips, the column texture's and (`normals`) the face normals'. The normals'
+        depend on the geometry only (their level 0 and the faces' opacities), so a bounce pass leaves them."""
         self.build_column_mips()
         p = self.mip_prog
         R = self.resolution
@@ -327,7 +328,8 @@ class VoxelScene:
                 p["sign_"] = 1 if f % 2 == 0 else -1
                 p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
             self.ctx.memory_barrier()
-        self.build_normal_mips()
+        if normals:
+            self.build_normal_mips()
 
     def build_normal_mips(self) -> None:
         """The face normals' mips (vct_normal_mip.comp), weighted by the faces' opacities: after theirs."""

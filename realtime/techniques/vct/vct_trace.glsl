@@ -139,8 +139,8 @@ float vct_front(vec4 against, vec3 along, float rho_ref) {
 }
 
 // Which side of a two-sided surface a texel shows a cone along d, one axis's term t_a: -1 where the face
-// against d is black though some surface faces the cone there (its normal m is stored) while the face along d
-// is lit, +1 where the face against d is lit and the face along d black, 0 otherwise (both lit: a surface
+// against d is black though a surface faces the cone on this axis there (a normal m is stored) while the face
+// along d is lit, +1 where the face against d is lit and the face along d black, 0 otherwise (both lit: a surface
 // turning inside the texel; both black; or no surface facing the cone on this axis). vct_read sums the terms
 // weighted by |d_a| alpha_a and drops the texel's light where the sum is negative. The derivation: a wall of
 // unit normal n crossing a voxel covers axis a by alpha_a = |n_a| / |n|_inf (vct_inject.comp's coverage); with
