@@ -799,6 +799,20 @@ def test_lit_plane_seen_from_its_front_reads_its_radiance_on_every_axis(ctx, d):
     assert r[:3] / r[3] == pytest.approx([L] * 3, rel=0.01), r
 
 
+def cone_from_the_dark_side(ctx, d, L: float, two_sided: bool) -> np.ndarray:
+    """(rgb gathered, occlusion) of one cone along d from x + y < 0 through the staircase plane of normal
+    n = (1, 1, 0) / sqrt 2 (staircase_lit_toward_plus_x_plus_y), which it meets from behind (n.d > 0)."""
+    vs = staircase_lit_toward_plus_x_plus_y(ctx, L, two_sided=two_sided)
+    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
+    u = np.asarray(d) / np.linalg.norm(d)
+    origin = np.array([-0.3, -0.3, 0.013])
+    assert u @ n > 0.0 and origin @ n < 0.0
+    r = vs.trace_cone(origin[None], u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
+                      (10.0 * n)[None], (-n)[None])[0]
+    vs.release()
+    return r
+
+
 @pytest.mark.parametrize("d", [(1.0, -0.3, 0.0), (-0.3, 1.0, 0.0)])
 def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
     """The voxels of the test above (+X and +Y faces lit L, -X and -Y black), a two-sided wall whose side of
@@ -813,14 +827,7 @@ def test_wall_lit_on_one_side_seen_from_its_dark_side_reads_dark(ctx, d):
     one: it guards the case as a regression check. The test above is the positive control (the same voxels
     seen from the lit side read L)."""
     L = 0.6
-    vs = staircase_lit_toward_plus_x_plus_y(ctx, L)
-    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
-    u = np.asarray(d) / np.linalg.norm(d)
-    origin = np.array([-0.3, -0.3, 0.013])
-    assert u @ n > 0.0 and origin @ n < 0.0
-    r = vs.trace_cone(origin[None], u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
-                      (10.0 * n)[None], (-n)[None])[0]
-    vs.release()
+    r = cone_from_the_dark_side(ctx, d, L, two_sided=True)
     assert r[3] > 0.95, r
     assert np.all(r[:3] < 0.01 * L), r
 
@@ -835,14 +842,7 @@ def test_one_sided_plane_seen_from_behind_reads_dark(ctx, d):
     Negative control (tests/mutants/shader_mutants.py): every face taken to face the cone, the lit face's light
     reaches it (0.6 L and more)."""
     L = 0.6
-    vs = staircase_lit_toward_plus_x_plus_y(ctx, L, two_sided=False)
-    n = np.array([1.0, 1.0, 0.0]) / math.sqrt(2.0)
-    u = np.asarray(d) / np.linalg.norm(d)
-    origin = np.array([-0.3, -0.3, 0.013])
-    assert u @ n > 0.0 and origin @ n < 0.0
-    r = vs.trace_cone(origin[None], u[None], np.array([0.1]), np.array([vs.grid.voxel_size]),
-                      (10.0 * n)[None], (-n)[None])[0]
-    vs.release()
+    r = cone_from_the_dark_side(ctx, d, L, two_sided=False)
     assert r[3] > 0.95, r
     assert np.all(r[:3] < 0.01 * L), r
 
