@@ -93,12 +93,17 @@ def shading_sources(declarations, defines: tuple[str, ...]) -> tuple[str, str]:
 
 
 def compile_shading(ctx: moderngl.Context, declarations, defines: tuple[str, ...]) -> moderngl.Program:
-    """The shading pass's program. A plugin's GLSL that does not compile is the plugin's error (one line
-    naming it, PluginLoadError); a builtin's is a bug and raised as it is."""
+    """The shading pass's program. Techniques that together sample more textures than the context allows are
+    refused naming them (limits.GLLimitExceeded: exit 3). A plugin's GLSL that does not compile is the
+    plugin's error (one line naming it, PluginLoadError); a builtin's is a bug and raised as it is."""
     vert, frag = shading_sources(declarations, defines)
     try:
         return ctx.program(vertex_shader=vert, fragment_shader=frag)
     except moderngl.Error as exc:
+        chosen = " and ".join(f"realtime.{d.effect} = {d.name!r}" for d in declarations)
+        refusal = limits.sampler_refusal(ctx, str(exc), chosen or "realtime")
+        if refusal is not None:
+            raise refusal from None
         plugins = [d for d in declarations if not d.builtin]
         if not plugins:
             raise

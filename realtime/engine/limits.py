@@ -12,6 +12,9 @@ A storage buffer beyond GL_MAX_SHADER_STORAGE_BLOCK_SIZE gets a `warning:` line 
 
 Beyond the limits that can be queried, a driver may still refuse a resource (memory): `check_created`
 reads the GL error flag after a resource is made and refuses the same way.
+The shading pass's active samplers are known only to the linker: techniques that together sample more
+textures than GL_MAX_TEXTURE_IMAGE_UNITS (16 guaranteed; voxel cone tracing alone samples 13 3D textures)
+fail to link, and `sampler_refusal` turns that link error into the same refusal, naming the techniques.
 
 The one case where going on is honest is an environment map too wide or tall for one texture:
 `fit_equirect` downsamples it (area-weighted, so the map's integral is kept) with a `warning:` line
@@ -49,7 +52,9 @@ GUARANTEED = {
     "GL_MAX_ARRAY_TEXTURE_LAYERS": 256,
     "GL_MAX_SHADER_STORAGE_BLOCK_SIZE": 1 << 24,
     "GL_MAX_COMPUTE_WORK_GROUP_COUNT": (65535, 65535, 65535),
+    "GL_MAX_TEXTURE_IMAGE_UNITS": 16,
 }
+SAMPLERS_LIMIT = "GL_MAX_TEXTURE_IMAGE_UNITS"
 HINT = "use smaller values for the key named, or run on a GPU whose OpenGL driver allows more"
 
 
@@ -106,6 +111,18 @@ def check_groups(ctx, counts: tuple[int, ...], key: str, what: str = "a compute 
     for axis, (n, most) in enumerate(zip(counts, value, strict=False)):
         if n > most:
             _refuse(what, f"{int(n)} work groups along {'xyz'[axis]}", GROUPS_LIMIT, value, key)
+
+
+def sampler_refusal(ctx, link_log: str, key: str) -> GLLimitExceeded | None:
+    """The refusal for a program that did not link because its stage samples more textures than
+    GL_MAX_TEXTURE_IMAGE_UNITS (which samplers are active is known only to the linker, so this reads its log:
+    Mesa says "Too many fragment shader texture samplers", other drivers name samplers too); None for any
+    other link error, which is a bug and raised as it is."""
+    text = link_log.lower()
+    if "sampler" not in text or not any(w in text for w in ("too many", "exceed", "limit", "maximum")):
+        return None
+    return GLLimitExceeded(f"{key}: the shading pass samples more textures than this OpenGL context's "
+                           f"{SAMPLERS_LIMIT} = {limit(ctx, SAMPLERS_LIMIT)} allows", HINT)
 
 
 #: the GL errors that mean a resource was not made: too large for memory, or a size beyond a limit

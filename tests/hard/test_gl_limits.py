@@ -12,14 +12,16 @@ from __future__ import annotations
 import warnings
 from types import SimpleNamespace
 
+import moderngl
 import numpy as np
 import pytest
 
 import realtime
 import scenes
 from experiments.cli import main as cli
-from realtime.engine import limits
+from realtime.engine import limits, technique
 from realtime.engine.context import get_context
+from realtime.engine.gpu import compile_shading
 from scenes import MissingCapability
 from scenes.environment.directions import equirect_solid_angles
 from tests.hard.common import write_env, write_tiny
@@ -40,6 +42,28 @@ def sphere_integral(env: np.ndarray) -> np.ndarray:
 
 
 # -- the checks, against a fake context ------------------------------------------------------------
+
+
+class RefusingContext(SimpleNamespace):
+    """A context whose program() fails to link with `log`, as a driver does."""
+
+    def program(self, **_):
+        raise moderngl.Error(self.log)
+
+
+def test_too_many_samplers_in_the_shading_pass_is_refused_naming_the_techniques():
+    """Mesa's linker refuses a fragment stage with more active samplers than GL_MAX_TEXTURE_IMAGE_UNITS with
+    "Too many fragment shader texture samplers": the refusal names the chosen techniques and the limit (exit 3),
+    not an internal error. Negative control: any other link error (a syntax error) is raised as it is."""
+    vct = technique.declaration_of("occlusion", "vct")
+    ctx = RefusingContext(info={"GL_MAX_TEXTURE_IMAGE_UNITS": 16},
+                          log="error: linking failed: error: Too many fragment shader texture samplers")
+    with pytest.raises(limits.GLLimitExceeded, match=r"^realtime\.occlusion = 'vct': the shading pass samples "
+                                                     r"more textures than .* GL_MAX_TEXTURE_IMAGE_UNITS = 16"):
+        compile_shading(ctx, [vct], ())
+    ctx.log = "0:12(3): error: syntax error, unexpected IDENTIFIER"
+    with pytest.raises(moderngl.Error, match="syntax error"):
+        compile_shading(ctx, [vct], ())
 
 
 @pytest.mark.parametrize("kind, size, name", [
