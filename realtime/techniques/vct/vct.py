@@ -22,7 +22,8 @@ Every frame (timed `voxelize`, its mips as `mip`):
    max(0, n . a_f) and the weighted normal (the normal-weighted scheme: the mean of a thin wall's normals
    would face nowhere);
 2. face normals (vct_normals.comp): each face's mean normal of the surfaces facing it, mipped
-   (vct_normal_mip.comp) with the faces' opacities after each build of the face mips;
+   (vct_normal_mip.comp) with the faces' opacities once a frame, after the coverage pass's face mips (the
+   bounce passes change the faces' radiance, not their opacities);
    coverage (vct_inject.comp, inject = 0): each face's alpha = the surface's coverage of the voxel's
    cross-section along the face's axis (|n_a| / |n|_inf: a plane is transparent along itself), then its
    mips; the same coverages into the column texture (one channel per axis), max-mipped
@@ -227,8 +228,7 @@ class VoxelScene:
                                                             package=here))
         self.normals_prog = ctx.compute_shader(shader_source("vct_normals.comp", COMPUTE_DEFINES, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
-        self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", COMPUTE_DEFINES,
-                                                                package=__package__))
+        self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         self.probe_prog = None
         self.cone_prog = None
