@@ -11,7 +11,7 @@ Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z
 toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' coverage along the face's
 axis), the cascades stacked along z, each face with its anisotropic mip chain; one RGBA16F column
 texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read; and six RGBA8 face-normal
-textures (the mean normal of the surfaces facing each face, bytes 128 + 127 n, a = 1 where there is one),
+textures (the mean normal of the surfaces facing each face, 0 where none does; bytes 128 + 127 n),
 mipped like the faces: 7 x 8 + 6 x 4 = 80 bytes per voxel at every level (the seed stores the finest level
 isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
 
@@ -214,7 +214,7 @@ class VoxelScene:
         self.columns.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         self.normals = []
         for _ in range(6):
-            tex = ctx.texture3d(size, 4, dtype="f1")  # RGBA8: bytes 128 + 127 n, a = 1 (0: no normal)
+            tex = ctx.texture3d(size, 4, dtype="f1")  # RGBA8: bytes 128 + 127 n (vct_normal_bytes.glsl)
             tex.build_mipmaps()
             tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
@@ -406,7 +406,7 @@ class VoxelScene:
         """(6, C, R_L, R_L, R_L, 3) float32 indexed [face, cascade, x, y, z, xyz]: the face normals at one mip
         level (0 where no surface faces the face's direction)."""
         v = self._read_textures(self.normals, level, rgba8=True)
-        return np.where(v[..., 3:4] > 0.5, (255.0 * v[..., :3] - 128.0) / 127.0, 0.0).astype("f4")
+        return ((255.0 * v[..., :3] - 128.0) / 127.0).astype("f4")  # vct_normal_bytes.glsl
 
     def _read_textures(self, textures, level: int, rgba8: bool = False) -> np.ndarray:
         r = self.resolution >> level
@@ -436,10 +436,9 @@ class VoxelScene:
         if normals is None:
             normals = np.where(faces[..., 3:4] > 0.0, np.asarray(vct_math.FACES, "f4")[:, None, None, None, None],
                                0.0)
-        for f, tex in enumerate(self.normals):
-            some = np.any(normals[f] != 0.0, axis=-1, keepdims=True)
-            stored = np.concatenate([np.round(128.0 + 127.0 * np.clip(normals[f], -1.0, 1.0)), 255.0 * some], axis=-1)
-            stored = stored.astype(np.uint8)
+        for f, tex in enumerate(self.normals):  # the bytes of vct_normal_bytes.glsl, alpha unused
+            stored = np.zeros(normals.shape[1:-1] + (4,), np.uint8)
+            stored[..., :3] = np.round(128.0 + 127.0 * np.clip(normals[f], -1.0, 1.0))
             tex.write(np.ascontiguousarray(stored.transpose(0, 3, 2, 1, 4).reshape(-1)).tobytes())
         # the column texture along each axis: the larger opacity of its two faces
         occ = np.zeros(faces.shape[1:], "f4")

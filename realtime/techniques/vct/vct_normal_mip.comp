@@ -4,7 +4,7 @@
 // their opacity. For face direction s e_a the 2x2x2 children pair up along axis a, the child on the s side
 // in front: m = a_front n_front + (1 - a_front) a_back n_back (a the face texture's opacity of each child,
 // n its stored normal, 0 where no surface faces s e_a: such a child still hides what is behind it); the
-// four pairs are summed and the sum normalised (none where it is 0), stored as vct_normals.comp stores it.
+// four pairs are summed and the sum normalised (0 where it is 0), stored as vct_normal_bytes.glsl says.
 // Only the direction is kept: the cones read its sign against their own direction (vct_trace.glsl's vct_read).
 // Cascades are stacked along z, each R_L deep at level L: children never cross a cascade.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
@@ -15,11 +15,7 @@ uniform ivec3 dst_size;
 uniform int axis;   // 0, 1, 2
 uniform int sign_;  // +1 or -1
 
-// a stored normal: rgb = (128 + 127 n) / 255 where a = 1, none (0) where a = 0 (vct_normals.comp)
-vec3 normal_at(ivec3 p) {
-    vec4 v = imageLoad(src, p);
-    return v.a > 0.5 ? (255.0 * v.rgb - 128.0) / 127.0 : vec3(0.0);
-}
+#include "vct_normal_bytes.glsl"
 
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
@@ -36,8 +32,8 @@ void main() {
             ivec3 pf = sign_ > 0 ? p + e : p;  // the front child
             ivec3 pb = sign_ > 0 ? p : p + e;
             float af = clamp(imageLoad(face, pf).a, 0.0, 1.0), ab = clamp(imageLoad(face, pb).a, 0.0, 1.0);
-            m += af * normal_at(pf) + (1.0 - af) * ab * normal_at(pb);
+            m += af * vct_normal_decoded(imageLoad(src, pf)) + (1.0 - af) * ab * vct_normal_decoded(imageLoad(src, pb));
         }
     float len = length(m);
-    imageStore(dst, g, len > 1e-6 ? vec4((128.0 + 127.0 * m / len) / 255.0, 1.0) : vec4(vec3(128.0 / 255.0), 0.0));
+    imageStore(dst, g, vct_normal_encoded(len > 1e-6 ? m / len : vec3(0.0)));
 }

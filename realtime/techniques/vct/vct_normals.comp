@@ -1,11 +1,11 @@
 #version 430
 // Per voxel of one cascade (realtime/techniques/vct/vct.py), level 0 of the six face-normal textures: face f
 // holds the mean normal n of the voxel's surfaces that face its direction a_f (the voxeliser's weighted sum
-// of max(0, n . a_f) n, normalised), stored as RGBA8 bytes 128 + 127 n (exact for a component 0) with a = 1;
-// a = 0 where no surface faces a_f. The injection lights face f with that surface's radiance toward a_f; a
-// cone reading the face learns from the normal whether the surface also faces the cone as a whole
-// (n . d < 0), which the face's own axis cannot tell (vct_trace.glsl's vct_read). A sum of vectors each
-// with n . a_f > 0 keeps n . a_f > 0, so a stored normal always leans toward its face.
+// of max(0, n . a_f) n, normalised), 0 where none does (stored as vct_normal_bytes.glsl says). The injection
+// lights face f with that surface's radiance toward a_f; a cone reading the face learns from the normal
+// whether the surface also faces the cone as a whole (n . d < 0), which the face's own axis cannot tell
+// (vct_trace.glsl's vct_read). A sum of vectors each with n . a_f > 0 keeps n . a_f > 0, so a stored normal
+// always leans toward its face.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(std430, binding = 1) readonly buffer Voxels { int acc[]; };
 layout(rgba8, binding = 0) uniform writeonly image3D out_px;
@@ -16,6 +16,7 @@ layout(rgba8, binding = 4) uniform writeonly image3D out_pz;
 layout(rgba8, binding = 5) uniform writeonly image3D out_nz;
 uniform int cascade;
 uniform int resolution;
+#include "vct_normal_bytes.glsl"
 
 void put(int f, ivec3 q, vec4 value) {
     if (f == 0) imageStore(out_px, q, value);
@@ -36,6 +37,6 @@ void main() {
         int o = base + FACE_INTS0 + 4 * f;
         vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
         bool faced = acc[base] > 0 && acc[o] > 0 && length(ns) > 0.0;
-        put(f, q, faced ? vec4((128.0 + 127.0 * normalize(ns)) / 255.0, 1.0) : vec4(vec3(128.0 / 255.0), 0.0));
+        put(f, q, vct_normal_encoded(faced ? normalize(ns) : vec3(0.0)));
     }
 }

@@ -9,7 +9,7 @@ uniform sampler3D vct_face_ny;
 uniform sampler3D vct_face_pz;
 uniform sampler3D vct_face_nz;
 // the same six faces' normals: the mean normal of the surfaces each face's light leaves (vct_read)
-// (rgb = (128 + 127 n) / 255 and a = 1; a = 0 where no surface faces the face's direction: vct_normals.comp)
+// (0 where no surface faces the face's direction: vct_normals.comp; the bytes: vct_normal_bytes.glsl)
 uniform sampler3D vct_normal_px;
 uniform sampler3D vct_normal_nx;
 uniform sampler3D vct_normal_py;
@@ -86,21 +86,16 @@ vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
     return f > 0.0 ? mix(a, vct_texel(tex, local, c, l1), f) : a;
 }
 
-// a stored face normal, decoded: 0 where the face has none (vct_normals.comp)
-vec3 vct_normal_decoded(vec4 v) {
-    return v.a > 0.5 ? (255.0 * v.rgb - 128.0) / 127.0 : vec3(0.0);
-}
-// A face normal at the cone's fractional mip, as vct_fetch: each level's decoded, then blended (only its sign
-// against d is read). The nearer level alone costs one fetch in place of two (a 64^3 frame of cornell-open:
-// 18 % more than without the normals, against 31 % with the blend), but where the cone's mip lies between a
-// level whose texel holds the surface and one whose texel does not, the blended radiance keeps the first
-// level's light while the nearer level's empty normal drops it: a lit plane seen from its front read 0.56 L.
+#include "vct_normal_bytes.glsl"
+
+// A face normal at the cone's fractional mip, read as vct_fetch reads the faces (the decoding is affine, so
+// the blend of the two levels' stored values is the blend of their normals; only its sign against d is read).
+// The nearer level alone costs one fetch in place of two (a 64^3 frame of cornell-open: 18 % more than
+// without the normals, against 31 % with the blend), but where the cone's mip lies between a level whose
+// texel holds the surface and one whose texel does not, the blended radiance keeps the first level's light
+// while the nearer level's empty normal drops it: a lit plane seen from its front read 0.56 L.
 vec3 vct_fetch_normal(sampler3D tex, vec3 local, int c, float mip) {
-    int l0 = int(floor(mip));
-    int l1 = min(l0 + 1, int(log2(float(vct_resolution))));
-    float f = mip - float(l0);
-    vec3 a = vct_normal_decoded(vct_texel(tex, local, c, l0));
-    return f > 0.0 ? mix(a, vct_normal_decoded(vct_texel(tex, local, c, l1)), f) : a;
+    return vct_normal_decoded(vct_fetch(tex, local, c, mip));
 }
 
 // the radiance per opacity of a face read (its brightest channel; 0 where transparent)
