@@ -8,7 +8,7 @@ creates a GL object whose size follows from the scene calls one of the checks be
 side or a work-group count beyond the limit raises `GLLimitExceeded` (a MissingCapability: CLI exit 3)
 with one line naming the limit, its value on this context and the scene key that asked for the size.
 A storage buffer beyond GL_MAX_SHADER_STORAGE_BLOCK_SIZE gets a `warning:` line instead
-(`check_storage` says why).
+(`check_storage` says why), up to 2^31 - 1 bytes, past which it is refused.
 
 Beyond the limits that can be queried, a driver may still refuse a resource (memory): `check_created`
 reads the GL error flag after a resource is made and refuses the same way.
@@ -55,6 +55,10 @@ GUARANTEED = {
     "GL_MAX_TEXTURE_IMAGE_UNITS": 16,
 }
 SAMPLERS_LIMIT = "GL_MAX_TEXTURE_IMAGE_UNITS"
+#: no storage buffer past this many bytes, whatever GL_MAX_SHADER_STORAGE_BLOCK_SIZE says: Mesa llvmpipe (which
+#: reports 128 MiB and accepts more) crashes the process reading a buffer past 2^31 bytes (a 2.28 GB buffer's
+#: atomics at its end worked, a read there crashed), and GLSL's length() of a buffer's array is an int
+MAX_STORAGE_BYTES = (1 << 31) - 1
 HINT = "use smaller values for the key named, or run on a GPU whose OpenGL driver allows more"
 
 
@@ -92,12 +96,15 @@ class StorageLimitWarning(UserWarning):
 
 def check_storage(ctx, nbytes: int, key: str, what: str = "a storage buffer") -> None:
     """Say so in one `warning:` line when a shader storage buffer of `nbytes` is larger than
-    GL_MAX_SHADER_STORAGE_BLOCK_SIZE.
+    GL_MAX_SHADER_STORAGE_BLOCK_SIZE; refuse one past MAX_STORAGE_BYTES whatever the driver reports.
 
     A warning, not a refusal: the limit is the least size the driver promises for one block, and
     drivers accept more (Mesa llvmpipe reports 128 MiB and reads and writes a 200 MiB block correctly;
-    `realtime.vct.resolution = 128` needs 224 MiB per cascade). Refusing would stop renders that are
+    `realtime.vct.resolution = 128` needs 136 MiB a buffer). Refusing would stop renders that are
     right; staying silent would hide that the result rests on more than the driver promises."""
+    if nbytes > MAX_STORAGE_BYTES:
+        raise GLLimitExceeded(f"{key}: {what} needs {int(nbytes)} bytes, above {MAX_STORAGE_BYTES} (2^31 - 1), the "
+                              "largest storage buffer iblcheck binds on any driver", HINT)
     value = int(limit(ctx, STORAGE_LIMIT))
     if nbytes > value:
         warnings.warn(f"{key}: {what} needs {int(nbytes)} bytes, above this OpenGL context's {STORAGE_LIMIT} = "

@@ -91,6 +91,20 @@ def test_too_many_work_groups_are_refused(counts, axis):
     limits.check_groups(fake(SMALL), (100, 50, 10), "realtime.lights.count")  # at the limit: fine
 
 
+@pytest.mark.parametrize("nbytes, refused", [((1 << 31) - 1, False), (1 << 31, True)])
+def test_a_storage_buffer_past_2_gib_is_refused_whatever_the_driver_reports(nbytes, refused):
+    """A driver reporting a block size of 4 GiB still gets no buffer past 2^31 - 1 bytes (llvmpipe crashes
+    reading one); one byte less passes silently, within the reported size."""
+    huge = fake({**SMALL, "GL_MAX_SHADER_STORAGE_BLOCK_SIZE": 1 << 32})
+    if refused:
+        with pytest.raises(limits.GLLimitExceeded, match=r"realtime\.vct\.resolution: .* 2147483648 bytes"):
+            limits.check_storage(huge, nbytes, "realtime.vct.resolution")
+    else:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            limits.check_storage(huge, nbytes, "realtime.vct.resolution")
+
+
 def test_a_storage_buffer_beyond_the_block_size_warns_and_goes_on():
     with pytest.warns(limits.StorageLimitWarning, match=r"realtime\.vct\.resolution: .* 1025 bytes.*1024"):
         limits.check_storage(fake(SMALL), 1025, "realtime.vct.resolution")

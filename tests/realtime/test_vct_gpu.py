@@ -33,7 +33,7 @@ import pytest
 
 import realtime
 import scenes
-from realtime.engine import gpu
+from realtime.engine import gpu, limits
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
@@ -489,6 +489,37 @@ def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx, offset):
     assert np.abs(r[:, :3]).max() <= 1e-4 * sky.max(), r
     vs.release()
     env.release()
+
+
+@pytest.mark.slow
+def test_a_256_cubed_plane_is_voxelised_and_lit_in_both_halves_of_the_sums(ctx):
+    """At 256^3 the voxeliser's sums (34 ints a voxel) would need 2.28 GB in one storage buffer, past the 2^31
+    bytes llvmpipe can read (it crashed the process); they are split by voxel index, z < 128 in one buffer and
+    z >= 128 in the other (vct_voxel_sums.glsl). A plane y = 0 spans both: at level 5 (texels of 32 voxels)
+    every texel it crosses wholly is opaque along y both ways, its upper face lit with kd / pi E(up) and its
+    lower face black, in the texels of z < 128 and z >= 128 alike, and the layers above and below it are empty."""
+    scene = scenes.load("builtin:sphere-on-plane")
+    plane = scene.objects[1]  # y = 0, half size 2, kd
+    env = sh_of(ctx, scene)
+    res = 256
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", limits.StorageLimitWarning)  # llvmpipe reports 128 MiB; a half is 1.14 GB
+        vs = voxels(ctx, [plane], res, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / res, 0.0), 2.2, res, 1), env=env)
+    _, M = env.read_sh()
+    n4 = np.array([0.0, 1.0, 0.0, 1.0])
+    want = np.asarray(plane.material.kd) / math.pi * np.array([n4 @ M[c] @ n4 for c in range(3)])
+    faces = vs.read_faces(5)[:, 0]  # (6, 8, 8, 8, 4) indexed [face, x, y, z]
+    vs.release()
+    env.release()
+    inner = slice(1, 7)  # texels of 0.55 wholly inside the plane's |x|, |z| <= 2 (the grid's +-2.2)
+    layer = faces[:, inner, 3, inner]  # y = 0 is the centre of voxel 127: texel 127 // 32 = 3
+    py, ny = layer[2], layer[3]
+    for half in (slice(0, 3), slice(3, 6)):  # z < 128 (texels 1-3) and z >= 128 (texels 4-6)
+        assert (py[:, half, 3] == 1.0).all() and (ny[:, half, 3] == 1.0).all()
+        lit = py[:, half, :3].reshape(-1, 3)
+        assert np.all(lit <= want * 1.002) and np.all(lit >= want * 0.99 * 0.998), (lit[:3], want)
+        assert np.abs(ny[:, half, :3]).max() == 0.0
+    assert np.abs(np.delete(faces, 3, axis=2)).max() == 0.0  # nothing above or below the plane's layer
 
 
 @pytest.mark.parametrize("step", [0.5, 0.25])

@@ -175,6 +175,12 @@ def groups(n: int, local: int) -> int:
     return (n + local - 1) // local
 
 
+def sums_split(resolution: int) -> int:
+    """The voxels the first of a cascade's two sum buffers holds (vct_voxel_sums.glsl): half of them, so that
+    neither buffer passes 2^31 bytes at resolution 256 (1.14 GB each; one would be 2.28 GB)."""
+    return resolution ** 3 // 2
+
+
 class VoxelScene:
     """The scene's voxel cascades on the GPU: voxelised, injected and mipmapped once per frame."""
 
@@ -194,14 +200,17 @@ class VoxelScene:
         size = (resolution, resolution, resolution * cascades)
         limits.check_storage(ctx, records.nbytes, "objects", "the voxelizer's triangle list")
         limits.check_groups(ctx, (groups(self.triangle_count, 64),), "objects", "the voxelizer's dispatch")
-        limits.check_storage(ctx, resolution ** 3 * VOXEL_INTS * 4, "realtime.vct.resolution",
-                             "a cascade's voxelization scratch buffer")
+        split = sums_split(resolution)
+        limits.check_storage(ctx, max(split, resolution ** 3 - split) * VOXEL_INTS * 4, "realtime.vct.resolution",
+                             "half a cascade's voxelization scratch")
         limits.check_texture(ctx, "3d", size, "realtime.vct.resolution and realtime.vct.cascades",
                              "the voxel cascades")
         limits.check_groups(ctx, (groups(resolution, 4),) * 2 + (groups(resolution * cascades, 4),),
                             "realtime.vct.resolution and realtime.vct.cascades", "the voxel mip dispatch")
         self.triangles = ctx.buffer(records.tobytes())
-        self.scratch = [ctx.buffer(reserve=resolution ** 3 * VOXEL_INTS * 4) for _ in range(cascades)]
+        # per cascade, the voxeliser's sums in two buffers: voxels [0, split) and the rest (vct_voxel_sums.glsl)
+        self.scratch = [(ctx.buffer(reserve=split * VOXEL_INTS * 4),
+                         ctx.buffer(reserve=(resolution ** 3 - split) * VOXEL_INTS * 4)) for _ in range(cascades)]
         self.faces = []
         for _ in range(6):
             tex = ctx.texture3d(size, 4, dtype="f2")
@@ -272,17 +281,25 @@ class VoxelScene:
         p["resolution"] = self.resolution
         for c in range(self.count):
             he = self.grid.half_extent_of(c)
-            self.scratch[c].clear()
-            self.scratch[c].bind_to_storage_buffer(1)
+            for buffer in self.scratch[c]:
+                buffer.clear()
+            self.bind_scratch(p, c)
             p["grid_min"] = tuple(float(x - he) for x in self.grid.centre)
             p["voxel"] = 2.0 * he / self.resolution
             p.run(groups(self.triangle_count, 64))
             self.ctx.memory_barrier()
 
+    def bind_scratch(self, prog: moderngl.ComputeShader, cascade: int) -> None:
+        """One cascade's voxeliser sums, both buffers, for `prog` (vct_voxel_sums.glsl)."""
+        low, high = self.scratch[cascade]
+        low.bind_to_storage_buffer(1)
+        high.bind_to_storage_buffer(3)
+        prog["vct_sums_split"] = sums_split(self.resolution)
+
     def write_normals(self, cascade: int) -> None:
         """Level 0 of the six face-normal textures of one cascade (vct_normals.comp)."""
         p = self.normals_prog
-        self.scratch[cascade].bind_to_storage_buffer(1)
+        self.bind_scratch(p, cascade)
         for f, tex in enumerate(self.normals):
             tex.bind_to_image(f, read=False, write=True, level=0)
         p["cascade"] = cascade
@@ -294,7 +311,7 @@ class VoxelScene:
     def inject(self, cascade: int, mode: int, sh_buffer: moderngl.Buffer) -> None:
         p = self.inject_prog
         self.bind_trace(p)
-        self.scratch[cascade].bind_to_storage_buffer(1)
+        self.bind_scratch(p, cascade)
         sh_buffer.bind_to_storage_buffer(2)
         if self.env_filter is not None:
             self.env_filter.bind_lookup(p, ENV_UNIT)
@@ -390,7 +407,7 @@ class VoxelScene:
     # -- read-backs (tests, measurements) -------------------------------------------------------
     def occupied(self, cascade: int = 0) -> np.ndarray:
         """(R, R, R) bool indexed [x, y, z]: voxels some triangle touched."""
-        acc = np.frombuffer(self.scratch[cascade].read(), dtype="i4").reshape(
+        acc = np.frombuffer(b"".join(b.read() for b in self.scratch[cascade]), dtype="i4").reshape(
             self.resolution, self.resolution, self.resolution, VOXEL_INTS)
         return acc[..., 0].transpose(2, 1, 0) > 0
 
@@ -502,11 +519,11 @@ class VoxelScene:
                         "bytes_per_voxel": BYTES_PER_VOXEL, "bytes_per_cascade": [per] * g.count,
                         "bytes": per * g.count, "single_texture_bytes": g.single_texture_bytes(BYTES_PER_VOXEL),
                         "single_texture_resolution": g.resolution << (g.count - 1),
-                        "scratch_bytes": sum(b.size for b in self.scratch), "triangles": self.triangle_count,
+                        "scratch_bytes": sum(b.size for pair in self.scratch for b in pair), "triangles": self.triangle_count,
                         "bounces": self.bounces}}
 
     def release(self) -> None:
-        for r in [self.triangles, *self.scratch, *self.faces, *self.normals, self.columns, self.voxelize_prog,
+        for r in [self.triangles, *(b for pair in self.scratch for b in pair), *self.faces, *self.normals, self.columns, self.voxelize_prog,
                   self.normals_prog, self.inject_prog, self.mip_prog, self.normal_mip_prog, self.column_mip_prog,
                   self.probe_prog, self.cone_prog]:
             if r is not None:

@@ -23,7 +23,7 @@
 //   face carries one side of a thin wall's light to the other;
 // - a face looking at a surface's back (the opposite face is faced): black, opaque by its coverage.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
-layout(std430, binding = 1) readonly buffer Voxels { int acc[]; };
+#include "vct_voxel_sums.glsl"
 layout(std430, binding = 2) readonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
 layout(rgba16f, binding = 0) uniform writeonly image3D out_px;
 layout(rgba16f, binding = 1) uniform writeonly image3D out_nx;
@@ -128,14 +128,14 @@ vec3 glossy_lobe(vec3 x, vec3 n, vec3 r, float N) {
 // normal, 0 along a plane's own directions (a wall running alongside a cone does not block it, where a
 // voxel opaque along every axis blocks the cone once per texel it passes). Several surfaces in a voxel
 // (a corner, a thin wall's two sides): each axis keeps the largest of their coverages.
-vec3 coverage(int base) {
+vec3 coverage(int v) {
     vec3 cover = vec3(0.0);
     for (int f = 0; f < 6; ++f) {
-        int o = base + FACE_INTS0 + 4 * f;
-        vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
+        int o = FACE_INTS0 + 4 * f;
+        vec3 ns = vec3(voxel_sum(v, o + 1), voxel_sum(v, o + 2), voxel_sum(v, o + 3));
         vec3 m = abs(ns);
         float top = max(m.x, max(m.y, m.z));
-        if (acc[o] > 0 && top > 0.0) cover = max(cover, m / top);
+        if (voxel_sum(v, o) > 0 && top > 0.0) cover = max(cover, m / top);
     }
     return cover;
 }
@@ -144,21 +144,21 @@ void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
     int R = vct_resolution;
     if (any(greaterThanEqual(g, ivec3(R)))) return;
-    int base = ((g.z * R + g.y) * R + g.x) * VOXEL_INTS;
-    int count = acc[base];
+    int v = (g.z * R + g.y) * R + g.x;
+    int count = voxel_sum(v, 0);
     ivec3 q = ivec3(g.xy, g.z + cascade * R);
-    vec3 cover = coverage(base);
+    vec3 cover = coverage(v);
     if (count == 0 || inject == 0) {
         for (int f = 0; f < 6; ++f) put(f, q, vec4(0.0, 0.0, 0.0, count > 0 ? cover[f / 2] : 0.0));
         if (inject == 0) imageStore(out_columns, q, vec4(count > 0 ? cover : vec3(0.0), 0.0));
         return;
     }
     float cnt = float(count);
-    vec3 kd = vec3(acc[base + 1], acc[base + 2], acc[base + 3]) / (ALBEDO_SCALE * cnt);
-    vec3 ks = vec3(acc[base + 4], acc[base + 5], acc[base + 6]) / (ALBEDO_SCALE * cnt);
-    float N = float(acc[base + 7]) / (EXPONENT_SCALE * cnt);
-    float f0 = float(acc[base + 8]) / (ALBEDO_SCALE * cnt);
-    float schlick = float(acc[base + 9]) / (ALBEDO_SCALE * cnt);
+    vec3 kd = vec3(voxel_sum(v, 1), voxel_sum(v, 2), voxel_sum(v, 3)) / (ALBEDO_SCALE * cnt);
+    vec3 ks = vec3(voxel_sum(v, 4), voxel_sum(v, 5), voxel_sum(v, 6)) / (ALBEDO_SCALE * cnt);
+    float N = float(voxel_sum(v, 7)) / (EXPONENT_SCALE * cnt);
+    float f0 = float(voxel_sum(v, 8)) / (ALBEDO_SCALE * cnt);
+    float schlick = float(voxel_sum(v, 9)) / (ALBEDO_SCALE * cnt);
     float he = vct_half_extent * exp2(float(cascade));
     float h = 2.0 * he / float(R);
     vec3 x = vct_centre - vec3(he) + (vec3(g) + 0.5) * h;
@@ -175,9 +175,9 @@ void main() {
     vec3 L[6];
     bool faced[6];
     for (int f = 0; f < 6; ++f) {
-        int o = base + FACE_INTS0 + 4 * f;
-        vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
-        faced[f] = acc[o] > 0 && length(ns) > 0.0;
+        int o = FACE_INTS0 + 4 * f;
+        vec3 ns = vec3(voxel_sum(v, o + 1), voxel_sum(v, o + 2), voxel_sum(v, o + 3));
+        faced[f] = voxel_sum(v, o) > 0 && length(ns) > 0.0;
         L[f] = vec3(0.0);
         if (!faced[f]) continue;
         vec3 n = normalize(ns);

@@ -7,7 +7,7 @@
 // (vct_trace.glsl's vct_read). A sum of vectors each with n . a_f > 0 keeps n . a_f > 0, so a stored normal
 // always leans toward its face.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
-layout(std430, binding = 1) readonly buffer Voxels { int acc[]; };
+#include "vct_voxel_sums.glsl"
 layout(rgba8, binding = 0) uniform writeonly image3D out_px;
 layout(rgba8, binding = 1) uniform writeonly image3D out_nx;
 layout(rgba8, binding = 2) uniform writeonly image3D out_py;
@@ -31,12 +31,12 @@ void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
     int R = resolution;
     if (any(greaterThanEqual(g, ivec3(R)))) return;
-    int base = ((g.z * R + g.y) * R + g.x) * VOXEL_INTS;
+    int v = (g.z * R + g.y) * R + g.x;
     ivec3 q = ivec3(g.xy, g.z + cascade * R);
     for (int f = 0; f < 6; ++f) {
-        int o = base + FACE_INTS0 + 4 * f;
-        vec3 ns = vec3(acc[o + 1], acc[o + 2], acc[o + 3]);
-        bool faced = acc[base] > 0 && acc[o] > 0 && length(ns) > 0.0;
+        int o = FACE_INTS0 + 4 * f;
+        vec3 ns = vec3(voxel_sum(v, o + 1), voxel_sum(v, o + 2), voxel_sum(v, o + 3));
+        bool faced = voxel_sum(v, 0) > 0 && voxel_sum(v, o) > 0 && length(ns) > 0.0;
         put(f, q, vct_normal_encoded(faced ? normalize(ns) : vec3(0.0)));
     }
 }

@@ -10,7 +10,8 @@
 layout(local_size_x = 64) in;
 // per triangle: p0 p1 p2 (n, two_sided + 2 schlick) (kd, f0) (ks, exponent)
 layout(std430, binding = 0) readonly buffer Triangles { vec4 tri[]; };
-layout(std430, binding = 1) coherent buffer Voxels { int acc[]; };       // VOXEL_INTS per voxel
+#define VCT_SUMS_ATOMIC
+#include "vct_voxel_sums.glsl"
 uniform int triangle_count;
 uniform vec3 grid_min;   // the cascade's lower corner
 uniform float voxel;     // its voxel edge
@@ -37,18 +38,18 @@ bool overlaps(vec3 c, vec3 hs, vec3 a, vec3 b, vec3 d) {
     return true;  // the box axes are the bounding-box test the caller did
 }
 
-void add(int base, vec3 n) {
+void add(int v, vec3 n) {
     const float S = NORMAL_SCALE;
     for (int f = 0; f < 6; ++f) {
         vec3 a = vec3(0.0);
         a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
         float w = max(dot(n, a), 0.0);
         if (w <= 0.0) continue;
-        int o = base + FACE_INTS0 + 4 * f;
-        atomicAdd(acc[o], int(round(w * S)));
-        atomicAdd(acc[o + 1], int(round(w * n.x * S)));
-        atomicAdd(acc[o + 2], int(round(w * n.y * S)));
-        atomicAdd(acc[o + 3], int(round(w * n.z * S)));
+        int o = FACE_INTS0 + 4 * f;
+        voxel_sum_add(v, o, int(round(w * S)));
+        voxel_sum_add(v, o + 1, int(round(w * n.x * S)));
+        voxel_sum_add(v, o + 2, int(round(w * n.y * S)));
+        voxel_sum_add(v, o + 3, int(round(w * n.z * S)));
     }
 }
 
@@ -74,16 +75,16 @@ void main() {
             for (int x = i0.x; x <= i1.x; ++x) {
                 vec3 c = grid_min + (vec3(x, y, z) + 0.5) * voxel;
                 if (!overlaps(c, hs, a, b, d)) continue;
-                int base = ((z * resolution + y) * resolution + x) * VOXEL_INTS;
-                atomicAdd(acc[base], 1);
+                int v = (z * resolution + y) * resolution + x;
+                voxel_sum_add(v, 0, 1);
                 for (int k = 0; k < 3; ++k) {
-                    atomicAdd(acc[base + 1 + k], int(round(kd[k] * ALBEDO_SCALE)));
-                    atomicAdd(acc[base + 4 + k], int(round(ks[k] * ALBEDO_SCALE)));
+                    voxel_sum_add(v, 1 + k, int(round(kd[k] * ALBEDO_SCALE)));
+                    voxel_sum_add(v, 4 + k, int(round(ks[k] * ALBEDO_SCALE)));
                 }
-                atomicAdd(acc[base + 7], int(round(ks.w * EXPONENT_SCALE)));
-                atomicAdd(acc[base + 8], int(round(kd.w * ALBEDO_SCALE)));
-                atomicAdd(acc[base + 9], int(round(schlick * ALBEDO_SCALE)));
-                add(base, nn.xyz);
-                if (two_sided) add(base, -nn.xyz);
+                voxel_sum_add(v, 7, int(round(ks.w * EXPONENT_SCALE)));
+                voxel_sum_add(v, 8, int(round(kd.w * ALBEDO_SCALE)));
+                voxel_sum_add(v, 9, int(round(schlick * ALBEDO_SCALE)));
+                add(v, nn.xyz);
+                if (two_sided) add(v, -nn.xyz);
             }
 }
