@@ -519,11 +519,13 @@ class VoxelScene:
                         "bytes_per_voxel": BYTES_PER_VOXEL, "bytes_per_cascade": [per] * g.count,
                         "bytes": per * g.count, "single_texture_bytes": g.single_texture_bytes(BYTES_PER_VOXEL),
                         "single_texture_resolution": g.resolution << (g.count - 1),
-                        "scratch_bytes": sum(b.size for pair in self.scratch for b in pair), "triangles": self.triangle_count,
+                        "scratch_bytes": sum(b.size for pair in self.scratch for b in pair),
+                        "triangles": self.triangle_count,
                         "bounces": self.bounces}}
 
     def release(self) -> None:
-        for r in [self.triangles, *(b for pair in self.scratch for b in pair), *self.faces, *self.normals, self.columns, self.voxelize_prog,
+        scratch = [b for pair in self.scratch for b in pair]
+        for r in [self.triangles, *scratch, *self.faces, *self.normals, self.columns, self.voxelize_prog,
                   self.normals_prog, self.inject_prog, self.mip_prog, self.normal_mip_prog, self.column_mip_prog,
                   self.probe_prog, self.cone_prog]:
             if r is not None:
