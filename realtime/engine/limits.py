@@ -56,8 +56,8 @@ GUARANTEED = {
 }
 SAMPLERS_LIMIT = "GL_MAX_TEXTURE_IMAGE_UNITS"
 #: no storage buffer past this many bytes, whatever GL_MAX_SHADER_STORAGE_BLOCK_SIZE says: Mesa llvmpipe (which
-#: reports 128 MiB and accepts more) crashes the process reading a buffer past 2^31 bytes (a 2.28 GB buffer's
-#: atomics at its end worked, a read there crashed), and GLSL's length() of a buffer's array is an int
+#: reports 128 MiB and accepts more) crashed the process reading past byte 2^31 of a buffer (of a 2.28 GB one,
+#: an atomic add at its end worked, a read there crashed)
 MAX_STORAGE_BYTES = (1 << 31) - 1
 HINT = "use smaller values for the key named, or run on a GPU whose OpenGL driver allows more"
 
@@ -98,8 +98,8 @@ def check_storage(ctx, nbytes: int, key: str, what: str = "a storage buffer") ->
     """Say so in one `warning:` line when a shader storage buffer of `nbytes` is larger than
     GL_MAX_SHADER_STORAGE_BLOCK_SIZE; refuse one past MAX_STORAGE_BYTES whatever the driver reports.
 
-    A warning, not a refusal: the limit is the least size the driver promises for one block, and
-    drivers accept more (Mesa llvmpipe reports 128 MiB and reads and writes a 200 MiB block correctly;
+    Up to MAX_STORAGE_BYTES a warning, not a refusal: the limit is the least size the driver promises for
+    one block, and drivers accept more (Mesa llvmpipe reports 128 MiB and reads and writes a 200 MiB block correctly;
     `realtime.vct.resolution = 128` needs 136 MiB a buffer). Refusing would stop renders that are
     right; staying silent would hide that the result rests on more than the driver promises."""
     if nbytes > MAX_STORAGE_BYTES:

@@ -1,8 +1,8 @@
 // The voxeliser's integer sums of one cascade (vct_voxelize.comp writes them, vct_normals.comp and
 // vct_inject.comp read them): VOXEL_INTS ints a voxel, voxel v = (z R + y) R + x, held in two storage
 // buffers, voxels [0, vct_sums_split) in the first and the rest in the second (realtime/techniques/vct/vct.py).
-// One buffer would hold R^3 VOXEL_INTS 4 bytes: 2.28 GB at 256^3, past 2^31 bytes, where Mesa llvmpipe's
-// reads crash the process (its atomics do not); halved, 256^3 needs 1.14 GB a buffer.
+// One buffer would hold R^3 VOXEL_INTS 4 bytes: 2.28 GB at 256^3, and Mesa llvmpipe crashed the process
+// reading past byte 2^31 of a buffer (an atomic add there worked); halved, 256^3 needs 1.14 GB a buffer.
 // VCT_SUMS_ATOMIC (the voxeliser): the buffers are written with atomics; otherwise they are read only.
 #ifdef VCT_SUMS_ATOMIC
 layout(std430, binding = 1) coherent buffer VoxelSumsLow { int sums_low[]; };
