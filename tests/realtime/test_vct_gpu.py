@@ -1,7 +1,8 @@
 """Voxel cone tracing on the GPU (realtime/techniques/vct/vct.py), against expectations found independently:
 
 - voxelisation: a sphere's occupied voxels lie in its analytic shell and number between its surface
-  area over a voxel face and the surface-voxel bound; an axis-aligned plane fills exactly one layer;
+  area over a voxel face and the surface-voxel bound; an axis-aligned plane fills exactly one layer; at
+  256^3, where the voxeliser's sums are split over two buffers, a plane is voxelised and lit in both halves;
 - the anisotropic mip on the GPU equals vct_math.anisotropic_mip (a voxel half filled along +X reads
   opaque from +-X and half opaque from the other axes);
 - a single convex object: VCT occlusion changes nothing (its image equals the direct-only image);
