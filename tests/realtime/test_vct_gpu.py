@@ -59,6 +59,13 @@ def sh_of(ctx, scene):
     return env
 
 
+def irradiance_up(env) -> np.ndarray:
+    """The environment's SH9 irradiance E(n) for n = +y, per channel (n^T M n, M read back from its filter)."""
+    _, M = env.read_sh()
+    n4 = np.array([0.0, 1.0, 0.0, 1.0])
+    return np.array([n4 @ M[c] @ n4 for c in range(3)])
+
+
 def voxels(ctx, objects, res, cascades=1, bounces=1, grid=None, env=None):
 
     vs = VoxelScene(ctx, objects, res, cascades, 6, 0.5, bounces=bounces, grid=grid)
@@ -471,9 +478,7 @@ def test_open_plane_injects_its_direct_light_and_gathers_nothing(ctx, offset):
     plane = scene.objects[1]  # y = 0, half size 2, kd
     env = sh_of(ctx, scene)
     vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, offset * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
-    _, M = env.read_sh()
-    n4 = np.array([0.0, 1.0, 0.0, 1.0])
-    sky = np.array([n4 @ M[c] @ n4 for c in range(3)])
+    sky = irradiance_up(env)
     faces = vs.read_faces(0)[:, 0]
     top = int(np.nonzero(vs.occupied()[16].any(axis=1))[0].max())  # one layer or two (on a boundary): the upper
     layer = faces[:, 8:24, top, 8:24]  # the plane's layer away from its edges
@@ -506,9 +511,7 @@ def test_a_256_cubed_plane_is_voxelised_and_lit_in_both_halves_of_the_sums(ctx):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", limits.StorageLimitWarning)  # llvmpipe reports 128 MiB; a half is 1.14 GB
         vs = voxels(ctx, [plane], res, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / res, 0.0), 2.2, res, 1), env=env)
-    _, M = env.read_sh()
-    n4 = np.array([0.0, 1.0, 0.0, 1.0])
-    want = np.asarray(plane.material.kd) / math.pi * np.array([n4 @ M[c] @ n4 for c in range(3)])
+    want = np.asarray(plane.material.kd) / math.pi * irradiance_up(env)
     faces = vs.read_faces(5)[:, 0]  # (6, 8, 8, 8, 4) indexed [face, x, y, z]
     vs.release()
     env.release()
@@ -560,9 +563,7 @@ def thin_wall_leak(ctx, objects, res: int, shift: float = 0.0) -> float:
     own = vct_math.cascades_for(*scene_bounds(objects), res, 1)
     centre = tuple(float(c) for c in np.asarray(own.centre) + shift * own.voxel_size * np.array([4.37, 2.9, 4.37]))
     vs = voxels(ctx, objects, res, env=env, grid=vct_math.Cascades(centre, own.half_extent, res, 1))
-    _, M = env.read_sh()
-    n4 = np.array([0.0, 1.0, 0.0, 1.0])
-    sky = np.array([n4 @ M[c] @ n4 for c in range(3)])
+    sky = irradiance_up(env)
     xs = np.linspace(-0.3, 0.3, 4)
     inside = np.array([[x, 0.0, z] for x in xs for z in xs])
     ring = np.linspace(0.0, 2.0 * np.pi, 16, endpoint=False)
@@ -610,18 +611,17 @@ def test_glossy_plane_injects_its_phong_lobe_toward_each_face(ctx):
     glossy = SimpleNamespace(mesh=plane.mesh, material=material)
     env = sh_of(ctx, scene)
     vs = voxels(ctx, [glossy], 32, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1), env=env)
-    coeffs, M = env.read_sh()
+    coeffs, _ = env.read_sh()
     up = np.array([0.0, 1.0, 0.0])
     lam = np.repeat(phong_band_factors(N), [1, 3, 5])
     want = np.asarray(ks) * ((lam * sh9(up)) @ coeffs)
+    diffuse = np.asarray(ks) / math.pi * irradiance_up(env)
     faces = vs.read_faces(0)[:, 0]
     py, ny = faces[2, 8:24, 15, 8:24].reshape(-1, 4), faces[3, 8:24, 15, 8:24].reshape(-1, 4)
     vs.release()
     env.release()
     assert np.all(py[:, :3] <= want * 1.002) and np.all(py[:, :3] >= want * 0.99 * 0.998), (py[:3], want)
     assert np.abs(ny[:, :3]).max() == 0.0
-    n4 = np.append(up, 1.0)
-    diffuse = np.asarray(ks) / math.pi * np.array([n4 @ M[c] @ n4 for c in range(3)])
     assert np.abs(diffuse / want - 1.0).max() > 0.02, (diffuse, want)
 
 
