@@ -44,12 +44,15 @@ void add(int v, vec3 n) {
         vec3 a = vec3(0.0);
         a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
         float w = max(dot(n, a), 0.0);
-        if (w <= 0.0) continue;
-        int o = FACE_INTS0 + 4 * f;
-        voxel_sum_add(v, o, int(round(w * S)));
-        voxel_sum_add(v, o + 1, int(round(w * n.x * S)));
-        voxel_sum_add(v, o + 2, int(round(w * n.y * S)));
-        voxel_sum_add(v, o + 3, int(round(w * n.z * S)));
+        // a branch, not `continue`: with `continue` here Mesa llvmpipe dropped one voxel's +Y face sums of a
+        // tilted plane (tests/realtime/test_vct_gpu.py's tilted-plane test), the other faces and the count kept
+        if (w > 0.0) {
+            int o = FACE_INTS0 + 4 * f;
+            voxel_sum_add(v, o, int(round(w * S)));
+            voxel_sum_add(v, o + 1, int(round(w * n.x * S)));
+            voxel_sum_add(v, o + 2, int(round(w * n.y * S)));
+            voxel_sum_add(v, o + 3, int(round(w * n.z * S)));
+        }
     }
 }
 
