@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from realtime.engine.environment_maps import environment_store
+from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.model.scene import Scene
 
@@ -81,14 +82,15 @@ def trilinear(chain: list[np.ndarray], d: np.ndarray, lod: float) -> tuple[np.nd
     return (1 - w) * a + w * b, inside_a & inside_b
 
 
-def scene_voxels(ctx, scene: Scene, resolution: int) -> VoxelScene:
-    """The scene's objects voxelised and injected at `resolution`^3, one cascade, six cones, step 0.5, under the
-    scene's environment (its SH9 from a 64^2 filter); the caller releases the voxels."""
+def scene_voxels(ctx, scene: Scene, resolution: int, objects: list | None = None,
+                 grid: vct_math.Cascades | None = None) -> VoxelScene:
+    """The scene's objects (or `objects`) voxelised and injected at `resolution`^3, one cascade (or `grid`), six
+    cones, step 0.5, under the scene's environment (its SH9 from a 64^2 filter); the caller releases the voxels."""
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)
     env.build_chain(None)
     env.project_sh(64)
-    vs = VoxelScene(ctx, scene.objects, resolution, 1, 6, 0.5)
+    vs = VoxelScene(ctx, scene.objects if objects is None else objects, resolution, 1, 6, 0.5, grid=grid)
     vs.update(None, env.sh_buffer)
     env.release()
     return vs

@@ -159,6 +159,32 @@ float vct_axis_facing(vec3 against, vec3 along, vec3 m) {
     return 0.0;
 }
 
+// Which axes' coverage can block a cone along unit d (1) and which cannot (0), from the mean normals of the
+// texel's faces against d (m) and along d (q) on each axis. A face's coverage alpha_a is its surfaces' cover of
+// the texel's cross-section along axis a, the same on its two faces (vct_inject.comp): a plane of normal n
+// covers |n_a| / |n|_inf of it whichever side it is seen from. But a ray meets a surface only through its
+// front where the surface is one side of a closed solid or a one-sided surface the ray starts in front of: a
+// ray from outside a closed solid that reaches a back (n . d > 0) has crossed a front before it, so the fronts
+// alone decide the visibility, and the backs' coverage blocks nothing that the fronts do not. A coarse texel,
+// though, also holds surfaces behind the sample that the cone moves away from (a room's wall beside the floor
+// a cone leaves, the far side of a tube the cone has passed), seen from behind, and their coverage blocked
+// the cone as if it crossed them. A surface covering axis a has n_a != 0, so it is in the face against d
+// (n_a d_a < 0) or the face along d (n_a d_a > 0) on that axis; it faces the cone where n . d < 0, which the
+// faces' mean normals test (exact for one surface a face; in the mips a mean weighted by the faces'
+// opacities). A two-sided wall has both sides, one of which faces the cone: it still blocks from either side.
+// Measured against ray casting (300 random surface points a scene, 96 cosine-weighted rays each, the six
+// shading cones' visibility, 32^3 / 64^3 / 128^3), the mean error of the visibility: torus-phong 0.031 / 0.032 /
+// 0.034 -> 0.022 / 0.023 / 0.023, sphere-on-plane 0.094 / 0.083 / 0.079 -> 0.092 / 0.080 / 0.073, bowl-diffuse
+// and cornell-open within 0.002 of before (their bias toward over-occlusion smaller by 0.002-0.013). A surface
+// whose back a ray from a shaded point can reach, a one-sided surface seen from behind that is no side of a
+// closed solid, no longer blocks through the coarse read: the finer read (vct_cone) keeps every surface's
+// coverage, whichever way it faces, so such a surface still blocks where it crosses the cone's axis.
+vec3 vct_facing_axes(vec3 mx, vec3 my, vec3 mz, vec3 qx, vec3 qy, vec3 qz, vec3 d) {
+    bvec3 against = lessThan(vec3(dot(mx, d), dot(my, d), dot(mz, d)), vec3(0.0));
+    bvec3 along = lessThan(vec3(dot(qx, d), dot(qy, d), dot(qz, d)), vec3(0.0));
+    return vec3(against.x || along.x ? 1.0 : 0.0, against.y || along.y ? 1.0 : 0.0, against.z || along.z ? 1.0 : 0.0);
+}
+
 // What a cone travelling along unit d reads at p from cascade c, mip `mip`: the faces pointing against d.
 // Returns (sum_a d_a^2 rgb_a, sum_a d_a^2 alpha_a) and, in `alphas`, each axis's face opacity alpha_a:
 // the step's transmittance combines these in the optical-depth domain (vct_cone). `front` is the part of
@@ -190,7 +216,15 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 mz = d.z > 0.0 ? vct_fetch_normal(vct_normal_nz, local, c, mip)
                          : vct_fetch_normal(vct_normal_pz, local, c, mip);
     vec3 sees = vec3(dot(mx, d) < 0.0 ? 1.0 : 0.0, dot(my, d) < 0.0 ? 1.0 : 0.0, dot(mz, d) < 0.0 ? 1.0 : 0.0);
-    alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0);
+    // the along faces' normals: the surfaces covering each axis that face along d there
+    vec3 qx = d.x > 0.0 ? vct_fetch_normal(vct_normal_px, local, c, mip)
+                         : vct_fetch_normal(vct_normal_nx, local, c, mip);
+    vec3 qy = d.y > 0.0 ? vct_fetch_normal(vct_normal_py, local, c, mip)
+                         : vct_fetch_normal(vct_normal_ny, local, c, mip);
+    vec3 qz = d.z > 0.0 ? vct_fetch_normal(vct_normal_pz, local, c, mip)
+                         : vct_fetch_normal(vct_normal_nz, local, c, mip);
+    // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
+    alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
     // the dominant face's rho: the one of the largest weighted opacity w_a alpha_a
     vec3 wa = w * alphas;
     float rho_ref = wa.x >= wa.y && wa.x >= wa.z ? vct_rho(x) : (wa.y >= wa.z ? vct_rho(y) : vct_rho(z));
