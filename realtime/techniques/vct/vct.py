@@ -53,6 +53,10 @@ from behind, shows no light on a minor axis). A texel that shows the cone a two-
 of n.d, read from which face of each axis is lit and which black face holds a normal, a surface facing the
 cone on that axis, weighted by |d_a| alpha_a: exact for one wall in a level-0 voxel) adds its opacity and no light
 (vct_axis_facing): inside a closed box, the far walls' lit outer sides in a coarse texel stay hidden.
+An axis's coverage blocks the cone only where a surface covering that axis faces it (the mean normal of the
+axis's face against d or along d has n . d < 0: vct_facing_axes): a ray from outside a closed solid meets a
+front before any back, and a coarse texel's surfaces behind the sample, which the cone moves away from, no
+longer block it; the finer read keeps every surface's coverage.
 The cones start NORMAL_OFFSET_VOXELS
 along the normal and START_OFFSET_VOXELS along the cone (in voxels of the finest cascade holding the point):
 the self-intersection offset, with the footprint cap (vct_trace.glsl, vct_math.sample_lod): a sample reads the

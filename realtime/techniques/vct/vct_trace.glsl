@@ -194,9 +194,9 @@ vec3 vct_facing_axes(vec3 mx, vec3 my, vec3 mz, vec3 qx, vec3 qy, vec3 qz, vec3 
 // vct_normals.comp, vct_normal_mip.comp) has m . d < 0. The face against d on axis a is lit by a surface of
 // normal n where n_a d_a < 0, one component of n . d only: a one-sided plane oblique to the grid, seen from
 // behind (n . d > 0), shows the cone its lit face on a minor axis (n_a d_a < 0 there), which would pass its
-// light to the cone. A face whose surfaces face away adds its opacity only (a back, as in vct_front); a face
-// no surface faces has m = 0 and holds no light. The rgb is 0 where the texel shows the cone the dark side
-// of a two-sided wall (vct_axis_facing).
+// light to the cone. A face whose surfaces face away adds its opacity only (a back, as in vct_front), and that
+// only where vct_facing_axes lets it; a face no surface faces has m = 0 and holds no light. The rgb is 0 where
+// the texel shows the cone the dark side of a two-sided wall (vct_axis_facing).
 vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front) {
     float he = vct_half_extent * exp2(float(c));
     vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
