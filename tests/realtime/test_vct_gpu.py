@@ -196,7 +196,7 @@ def test_distant_occluder_is_over_occluded_as_measured(ctx):
     # (27.7 % blocked here at 32^3 to 128^3: that cone's whole share of the lobe). A lod bias (finer voxels)
     # does not change it; a looser cap brings back the plane's self-occlusion; tracing a capped cone as 19
     # parallel rays through its disc reads 10.2 % at 64^3 and 128^3 but leaks through a thin wall (over 1 %;
-    # docs/techniques.md, "Voxel cone tracing", records it).
+    # docs/voxel-cone-tracing-measurements.md records it).
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"objects.0.translate": [0.0, 1.5, 0.0]})
     env = sh_of(ctx, scene)
     vs = voxels(ctx, scene.objects, 64, env=env)

@@ -2,8 +2,9 @@
 model of voxel cone tracing reaches when every read is a box exactly as wide as the cone, centred on its axis,
 each level-0 column composited exactly through it. The shading pass reads texels of the mip pyramid instead:
 grid-aligned, power-of-two wide, capped near the surface the cone leaves, and kept no more open than the
-axis's own column (vct_trace.glsl). docs/techniques.md compares the two under a sphere above a plane, where
-this model comes within the criterion's 3 points of the exact 11.1 % at 64^3 and the shading's cones do not."""
+axis's own column (vct_trace.glsl). docs/voxel-cone-tracing-measurements.md compares the two under a sphere
+above a plane, where this model comes within the criterion's 3 points of the exact 11.1 % at 64^3 and the
+shading's cones do not."""
 
 from __future__ import annotations
 
