@@ -98,6 +98,11 @@ vec3 vct_fetch_normal(sampler3D tex, vec3 local, int c, float mip) {
     return vct_normal_decoded(vct_fetch(tex, local, c, mip));
 }
 
+// the normal of one axis's face: the one pointing toward +a (`positive`, from `toward_pos`) or toward -a
+vec3 vct_axis_normal(sampler3D toward_pos, sampler3D toward_neg, bool positive, vec3 local, int c, float mip) {
+    return positive ? vct_fetch_normal(toward_pos, local, c, mip) : vct_fetch_normal(toward_neg, local, c, mip);
+}
+
 // the radiance per opacity of a face read (its brightest channel; 0 where transparent)
 float vct_rho(vec4 f) {
     return f.a > 1e-6 ? max(f.r, max(f.g, f.b)) / f.a : 0.0;
@@ -209,20 +214,14 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 oy = (d.y > 0.0 ? vct_fetch(vct_face_py, local, c, mip) : vct_fetch(vct_face_ny, local, c, mip)).rgb;
     vec3 oz = (d.z > 0.0 ? vct_fetch(vct_face_pz, local, c, mip) : vct_fetch(vct_face_nz, local, c, mip)).rgb;
     // the against faces' normals, and which of those faces' surfaces face the cone (1) or not (0)
-    vec3 mx = d.x > 0.0 ? vct_fetch_normal(vct_normal_nx, local, c, mip)
-                         : vct_fetch_normal(vct_normal_px, local, c, mip);
-    vec3 my = d.y > 0.0 ? vct_fetch_normal(vct_normal_ny, local, c, mip)
-                         : vct_fetch_normal(vct_normal_py, local, c, mip);
-    vec3 mz = d.z > 0.0 ? vct_fetch_normal(vct_normal_nz, local, c, mip)
-                         : vct_fetch_normal(vct_normal_pz, local, c, mip);
+    vec3 mx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x <= 0.0, local, c, mip);
+    vec3 my = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y <= 0.0, local, c, mip);
+    vec3 mz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z <= 0.0, local, c, mip);
     vec3 sees = vec3(dot(mx, d) < 0.0 ? 1.0 : 0.0, dot(my, d) < 0.0 ? 1.0 : 0.0, dot(mz, d) < 0.0 ? 1.0 : 0.0);
     // the along faces' normals: the surfaces covering each axis that face along d there
-    vec3 qx = d.x > 0.0 ? vct_fetch_normal(vct_normal_px, local, c, mip)
-                         : vct_fetch_normal(vct_normal_nx, local, c, mip);
-    vec3 qy = d.y > 0.0 ? vct_fetch_normal(vct_normal_py, local, c, mip)
-                         : vct_fetch_normal(vct_normal_ny, local, c, mip);
-    vec3 qz = d.z > 0.0 ? vct_fetch_normal(vct_normal_pz, local, c, mip)
-                         : vct_fetch_normal(vct_normal_nz, local, c, mip);
+    vec3 qx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x > 0.0, local, c, mip);
+    vec3 qy = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y > 0.0, local, c, mip);
+    vec3 qz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z > 0.0, local, c, mip);
     // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
     // the dominant face's rho: the one of the largest weighted opacity w_a alpha_a
