@@ -388,6 +388,74 @@ def test_wider_aperture_reads_a_coarser_level(level_coded):
     assert np.allclose(r[:, 0], [0.0, math.log2(1.6), math.log2(3.2), 3.0], atol=0.02), r[:, 0]
 
 
+FILL_SLAB = FILL_LEVEL.replace("uniform ivec3 size;", "uniform ivec3 size;\nuniform ivec3 offset;").replace(
+    "imageStore(dst, g, value)", "imageStore(dst, g + offset, value)")
+#: level 0's code in `two_cascades_coded`: far from every mip level's, so a blend with it shows
+LEVEL0_CODE = 100.0
+
+
+@pytest.fixture(scope="module")
+def two_cascades_coded(ctx):
+    """Two cascades of 16^3 (h0 = 0.125, cascade 1 twice as wide): mip level k >= 1 of cascade c holds radiance
+    (k, c, 0), level 0 of both (LEVEL0_CODE, c, 0), opacity 1 and each face's own direction as its normal
+    everywhere; the step is 4 cone diameters, so a cone stops at its first sample, whose red and green are the
+    level and the cascade it read."""
+    res, count = 16, 2
+    plane = scenes.load("builtin:sphere-on-plane").objects[1]
+    vs = VoxelScene(ctx, [plane], res, count, 6, 4.0, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, res, count))
+    fill = ctx.compute_shader(FILL_SLAB)
+    fill_normal = ctx.compute_shader(FILL_SLAB.replace("rgba16f", "rgba8"))
+    for f, (tex, normal) in enumerate(zip(vs.faces, vs.normals, strict=True)):
+        code = (128.0 + 127.0 * np.array(vct_math.FACES[f])) / 255.0
+        for k in range(vs.grid.levels):
+            r = res >> k
+            for c in range(count):
+                level = LEVEL0_CODE if k == 0 else float(k)
+                for prog, target, value in ((fill, tex, (level, float(c), 0.0, 1.0)),
+                                            (fill_normal, normal, (*code, 1.0))):
+                    target.bind_to_image(0, read=False, write=True, level=k)
+                    prog["size"] = (r, r, r)
+                    prog["offset"] = (0, 0, c * r)
+                    prog["value"] = tuple(float(x) for x in value)
+                    prog.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
+    ctx.memory_barrier()
+    fill.release()
+    fill_normal.release()
+    yield vs
+    vs.release()
+
+
+@pytest.mark.parametrize("lod_min", [0.0, 1.0])
+@pytest.mark.parametrize("point", [(0.02, -0.03, 0.01), (1.5, 0.02, -0.03)])  # in cascade 0; in cascade 1 only
+@pytest.mark.parametrize("lod", [0.5, 1.0, 1.5, 2.3])
+def test_bounce_passes_read_no_cascade_at_level_0(two_cascades_coded, lod_min, point, lod):
+    """The injection's bounce passes (lod_min 1) rewrite level 0 of every cascade while their cones read, so
+    a cone with lod_min 1 must read no cascade's level 0: a texel of its lod from the finer cascade's mip
+    (cascade 0 mip 1 where the seed's rule takes cascade 1's level 0, the same texel size), or a coarser one
+    where the sample lies only in a coarser cascade. The shading's cones (lod_min 0) keep the seed's rule.
+    Both as vct_math.Cascades.level_of(mip_min=lod_min) predicts, read back through level-coded mips (red: the
+    mip-linear blend of the levels read, green: the cascade). Control: the seed's rule, which vct_cone
+    followed for every lod_min, reads cascade 1's level 0 at lod 1 and 1.5 (red 100 and 50.5), which the
+    first assertion refuses."""
+    vs = two_cascades_coded
+    g = vs.grid
+    h0 = g.voxel_size
+    n = np.array([0.0, 1.0, 0.0])
+    p = np.array(point)
+    t = 4.0  # voxels: the diameter 2 t tan is 2^lod voxels, far under the cap 100 voxels above the surface
+    tan_half = 2.0 ** lod / (2.0 * t)
+    r = vs.trace_cone(np.array([p - t * h0 * n]), np.array([n]), np.array([tan_half]), np.array([t * h0]),
+                      np.array([p - 100.0 * h0 * n]), np.array([n]), lod_min=lod_min)[0]
+    c, mip = g.level_of(p, max(2.0 ** lod, 2.0 ** lod_min) * h0, mip_min=lod_min)
+    lo = math.floor(mip)
+    code = [LEVEL0_CODE] + list(range(1, g.levels))
+    want = code[lo] if mip == lo else (1.0 - (mip - lo)) * code[lo] + (mip - lo) * code[lo + 1]
+    if lod_min > 0.0:
+        assert r[0] < LEVEL0_CODE / 2.0 and mip >= lod_min, (r, c, mip)
+    assert r[3] == pytest.approx(1.0, abs=1e-6)
+    assert (r[0], r[1]) == (pytest.approx(want, rel=2e-3, abs=0.02), pytest.approx(c, abs=1e-3)), (r, c, mip)
+
+
 def test_enclosure_of_uniform_radiance_gathers_pi_l_times_what_it_blocks(ctx):
     """Inside a closed box whose walls show radiance L to the inside (their outward faces black), every
     cone gathers L times its own opacity, so E = sum_k w_k L (1 - T_k) = pi L (1 - V) exactly, whatever the

@@ -188,6 +188,23 @@ def test_cascades_double_and_level_selection_follows_the_cone_diameter():
     assert one.level_of(origin, 4 * h) == (0, pytest.approx(2.0))
 
 
+def test_level_selection_with_a_mip_floor_reads_no_cascade_at_level_0():
+    """mip_min 1 (the injection's bounce passes, which rewrite every cascade's level 0): by hand on three
+    cascades of 32^3 (h = 1/16): a 2 h cone at the centre reads cascade 0's mip 1 (texel 2 h, where mip_min 0
+    reads cascade 1's level 0, also 2 h); 5 h: cascade 1, mip log2(5) - 1; 16 h: cascade 2, mip 2 either way
+    (the seed's rule already reads a mip there); a 2 h cone at x = 1.5, held only by cascades 1 and 2, reads
+    cascade 1's mip 1 (4 h: coarser than the cone, the finest texel there that is no level 0)."""
+    g = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 3)
+    h, origin = g.voxel_size, np.zeros(3)
+    assert g.level_of(origin, 2 * h, mip_min=1.0) == (0, 1.0)
+    assert g.level_of(origin, 2 * h) == (1, 0.0)
+    c, mip = g.level_of(origin, 5 * h, mip_min=1.0)
+    assert (c, mip) == (1, pytest.approx(math.log2(5.0) - 1.0))
+    assert g.level_of(origin, 16 * h, mip_min=1.0) == (2, pytest.approx(2.0))
+    assert g.level_of(np.array([1.5, 0, 0]), 2 * h, mip_min=1.0) == (1, 1.0)
+    assert g.level_of(np.array([1.5, 0, 0]), 2 * h) == (1, 0.0)  # control: the seed's rule reads its level 0
+
+
 def test_cascaded_memory_against_one_texture_of_the_same_finest_voxel():
     g = vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 64, 3)
     per = g.bytes_per_cascade(48)

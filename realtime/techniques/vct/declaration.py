@@ -38,8 +38,10 @@ def describe(rt) -> dict:
 #: 2: a texel showing a cone its lit surface's back adds no light (vct_trace.glsl's vct_axis_facing);
 #: 3: per-face normals: a face adds light only where its surfaces face the cone, and the facing sum counts a
 #: black face only where a normal is stored on it, a surface facing the cone on that axis (vct_read);
-#: 4: an axis's coverage blocks a cone only where a surface covering that axis faces it (vct_facing_axes)
-MODEL_VERSION = 4
+#: 4: an axis's coverage blocks a cone only where a surface covering that axis faces it (vct_facing_axes);
+#: 5: the bounce passes' cones read no cascade's level 0, which those passes rewrite (with cascades >= 2 they
+#: read a coarser cascade's level 0 while it was written: bounces >= 2 with cascades >= 2 change)
+MODEL_VERSION = 5
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

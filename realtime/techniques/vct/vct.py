@@ -90,11 +90,12 @@ NORMAL_OFFSET_VOXELS = 1.5
 START_OFFSET_VOXELS = 1.0
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
-#: the bounce passes' cones read mips >= this: they gather the previous bounce's radiance from level 0's rgb,
-#: which the same pass overwrites. The direct pass reads level 0 too: its cones use only the opacities, which
-#: the coverage pass wrote and it rewrites unchanged (a level-1 texel near the surface holds the surface's
-#: own layer, which then occludes its own cones: cornell-open's indirect energy at 32^3 goes from 0.81 to 0.86 of
-#: the path tracer's one bounce with level 0 read)
+#: the bounce passes' cones read mips >= this inside every cascade: they gather the previous bounce's radiance,
+#: and the same pass overwrites level 0's rgb in each cascade (vct_trace.glsl's vct_cone floors the mip inside
+#: the cascade, not only the level over the pyramid, whose lod 1 is cascade 1's level 0). The direct pass reads
+#: level 0 too: its cones use only the opacities, which the coverage pass wrote and it rewrites unchanged (a
+#: level-1 texel near the surface holds the surface's own layer, which then occludes its own cones: cornell-open's
+#: indirect energy at 32^3 goes from 0.81 to 0.86 of the path tracer's one bounce with level 0 read)
 INJECT_LOD_MIN = 1.0
 #: injection's cones step this many times the shading's (`step`); 2 halves the injection's time on cornell-open but
 #: darkens the injected light by a fifth (Beer-Lambert over fewer samples), so it stays 1
@@ -265,12 +266,14 @@ class VoxelScene:
         for c in range(self.count):
             self.write_normals(c)
             self.inject(c, 0, sh_buffer)
+        ctx.finish()  # the mips' time starts once the work queued before them is done
         t0 = time.perf_counter()
         self.build_mips()
         mip_ms += self._finish_ms(t0)
         for bounce in range(1, self.bounces + 1):
             for c in range(self.count):
                 self.inject(c, 1 if bounce == 1 else 2, sh_buffer)
+            ctx.finish()
             t0 = time.perf_counter()
             self.build_mips(normals=False)
             mip_ms += self._finish_ms(t0)

@@ -169,16 +169,22 @@ class Cascades:
                 return c
         return -1
 
-    def level_of(self, p: np.ndarray, diameter: float) -> tuple[int, float]:
+    def level_of(self, p: np.ndarray, diameter: float, mip_min: float = 0.0) -> tuple[int, float]:
         """The seed's level selection: the cone's diameter d at p gives lod = log2(d / h0) over the
         whole pyramid (voxel size h0 2^lod); the cascade is floor(lod) (a coarser cascade covers the
-        same level), never finer than the finest one holding p; the mip inside it is lod - cascade."""
+        same level), never finer than the finest one holding p; the mip inside it is lod - cascade.
+
+        `mip_min` (the injection's bounce passes: 1) keeps the mip inside the cascade at or above it, since
+        those passes rewrite level 0 of every cascade while their cones read: the cascade is then
+        floor(lod - mip_min), so that the same texel size h0 2^lod comes from a finer cascade's mip where the
+        seed's rule would take a coarser cascade's level 0; where p lies only in cascades too coarse for that,
+        the read is coarser than lod (mip_min of the finest one holding p)."""
         lod = max(0.0, math.log2(max(diameter, 1e-30) / self.voxel_size))
         inside = self.cascade_of(p)
         if inside < 0:
             return -1, 0.0
-        c = min(max(int(math.floor(lod)), inside), self.count - 1)
-        return c, min(max(lod - c, 0.0), float(self.levels - 1))
+        c = min(max(int(math.floor(lod - mip_min)), inside), self.count - 1)
+        return c, min(max(lod - c, mip_min), float(self.levels - 1))
 
     def bytes_per_cascade(self, bytes_per_voxel: int) -> int:
         """One cascade's six faces with their full mip chains (1 + 1/8 + ... of the finest)."""

@@ -256,7 +256,7 @@ float vct_step_transmittance(vec3 alphas, vec3 d, float ds, float vs) {
 // (radiance gathered, occlusion). The level (vct_math.sample_lod mirrors it) follows the cone's diameter
 // 2 t tan_half (at least h0): lod = log2(diameter / h0) over the whole pyramid, the cascade floor(lod)
 // but never finer than the finest holding the sample, the mip lod - cascade (vct_math.Cascades.level_of).
-// `lod_min` keeps the injection off level 0.
+// `lod_min` keeps the injection's bounce passes off level 0 of every cascade (the level they rewrite).
 // The footprint cap keeps the lookup off the surface the cone leaves (plane n through `surface`): the
 // trilinear, mip-linear lookup at lod reads the 2x2x2 texels around p at levels floor(lod) and ceil(lod);
 // those of the coarser level, of edge s = h0 2^ceil(lod), reach 1.5 s from p along each axis, so
@@ -289,8 +289,11 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         float lod_cone = log2(max(2.0 * t * tan_half, vct_voxel) / vct_voxel);
         float diam = vct_voxel * exp2(min(lod_cone, lod_cap));
         float lod = max(min(lod_cone, lod_cap), lod_min);
-        int c = clamp(int(floor(lod)), inside, vct_cascades - 1);
-        float mip = clamp(lod - float(c), 0.0, max_mip);
+        // lod_min also floors the mip inside the cascade (vct_math.Cascades.level_of's mip_min): the bounce
+        // passes rewrite level 0 of every cascade, so their cones take a texel of lod from a finer cascade's
+        // mip >= lod_min, never from a coarser cascade's level 0
+        int c = clamp(int(floor(lod - lod_min)), inside, vct_cascades - 1);
+        float mip = clamp(max(lod - float(c), lod_min), 0.0, max_mip);
         vec3 alphas;
         float front;
         vec4 s = vct_read(p, d, c, mip, alphas, front);
