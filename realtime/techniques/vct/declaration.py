@@ -40,8 +40,10 @@ def describe(rt) -> dict:
 #: black face only where a normal is stored on it, a surface facing the cone on that axis (vct_read);
 #: 4: an axis's coverage blocks a cone only where a surface covering that axis faces it (vct_facing_axes);
 #: 5: the bounce passes' cones read no cascade's level 0, which those passes rewrite (with cascades >= 2 they
-#: read a coarser cascade's level 0 while it was written: bounces >= 2 with cascades >= 2 change)
-MODEL_VERSION = 5
+#: read a coarser cascade's level 0 while it was written: bounces >= 2 with cascades >= 2 change);
+#: 6: the faces' radiance scaled into half float's range under a bright environment (vct_math.radiance_scale),
+#: and a stored normal told from the empty one with a tolerance (images of ordinary scenes within 1.2e-7)
+MODEL_VERSION = 6
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

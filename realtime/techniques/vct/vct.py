@@ -244,6 +244,11 @@ class VoxelScene:
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
         self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
+        # the faces store radiance times this (vct_math.radiance_scale): the environment's brightest radiance
+        # (without the frame's environment store, as in some tests, its SH9 stands in and nothing is scaled)
+        peak = 0.0 if env_filter is None else float(np.max(env_filter.radiance)) * max(
+            float(np.max(kd) + np.max(ks)) for kd, ks, *_ in map(reflectance_of, (o.material for o in objects)))
+        self.radiance_scale = vct_math.radiance_scale(peak * bounces)
         self.probe_prog = None
         self.cone_prog = None
         self.updated_frame: int | None = None
@@ -399,6 +404,7 @@ class VoxelScene:
         set_uniform(prog, "vct_step", self.step)
         set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
         set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
+        set_uniform(prog, "vct_radiance_scale", self.radiance_scale)
         cones = self.cones
         dirs = np.zeros((9, 3), "f4")
         dirs[: len(cones.directions)] = cones.directions
@@ -528,7 +534,7 @@ class VoxelScene:
                         "single_texture_resolution": g.resolution << (g.count - 1),
                         "scratch_bytes": sum(b.size for pair in self.scratch for b in pair),
                         "triangles": self.triangle_count,
-                        "bounces": self.bounces}}
+                        "bounces": self.bounces, "radiance_scale": self.radiance_scale}}
 
     def release(self) -> None:
         scratch = [b for pair in self.scratch for b in pair]

@@ -184,7 +184,7 @@ void main() {
         vec3 a = vec3(0.0);
         a[f / 2] = (f % 2 == 0) ? 1.0 : -1.0;
         float c = max(dot(n, a), 0.0);
-        float F = f0 + schlick * (1.0 - f0) * pow(1.0 - c, 5.0);
+        float F = f0 + schlick * (1.0 - f0) * pow(max(1.0 - c, 0.0), 5.0);  // pow of a negative base is undefined
         if (diffuse) {
             int k = 0;
             for (; k < done; ++k)
@@ -201,7 +201,7 @@ void main() {
         if (glossy) L[f] += F * ks * vct_lobe_above(c, N) * glossy_lobe(x, n, reflect(-a, n), N);
     }
     for (int f = 0; f < 6; ++f) {
-        // premultiplied: the radiance of what covers the face's axis, times that coverage
-        put(f, q, cover[f / 2] * vec4(L[f], 1.0));
+        // premultiplied: the radiance of what covers the face's axis, times that coverage (and the radiance scale)
+        put(f, q, cover[f / 2] * vec4(L[f] * vct_radiance_scale, 1.0));
     }
 }

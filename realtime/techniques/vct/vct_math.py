@@ -17,6 +17,7 @@ or the GPU side needs without GL.
 - `normal_mip`: one level of the six face-normal textures' mip (the normal of what a viewer on each face's side
   sees, weighted as the faces composite their opacity), the reference for vct_normal_mip.comp.
 - `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
+- `radiance_scale`: the power of two the faces' radiance is stored times, so that a bright sun fits half float.
 """
 
 from __future__ import annotations
@@ -230,6 +231,27 @@ def cascades_for(bounds_min: np.ndarray, bounds_max: np.ndarray, resolution: int
     outer = 0.5 * float((hi - lo).max()) * margin
     outer = max(outer, 1e-3)
     return Cascades(tuple(float(x) for x in centre), outer / 2.0 ** (count - 1), resolution, count)
+
+
+#: the largest radiance the faces (RGBA16F) are let to hold: 2^14, four times under half float's largest value
+#: 65504, whose full precision (11 significant bits) reaches down to 2^-14
+FACE_RADIANCE_MAX = 2.0 ** 14
+
+
+def radiance_scale(peak: float) -> float:
+    """What the faces' radiance is multiplied by when it is stored (and divided by when a cone reads it), for
+    radiance at most `peak`: 1 where peak <= FACE_RADIANCE_MAX (nothing changes), else the power of two that
+    brings peak under it. A face holds (1 - F) kd / pi (E V_d + E_b) + F ks H (L_g V_g + L_b); E <= pi L_max and
+    L_g <= L_max for the environment's brightest radiance L_max, and each bounce adds at most an albedo (<= 1)
+    times that, so peak = L_max max(kd + ks) bounces bounds it (`VoxelScene`). Half float would turn a 1e6 sun's
+    glossy reflection into its largest value (llvmpipe) or infinity; a power of two scales exactly both ways,
+    and the 2^28 between half float's smallest normal and FACE_RADIANCE_MAX keeps a sky 1e6 times dimmer than
+    the sun at full precision."""
+    if not math.isfinite(peak) or peak < 0.0:
+        raise ValueError(f"radiance_scale: the faces' peak radiance must be finite and >= 0, got {peak}")
+    if peak <= FACE_RADIANCE_MAX:
+        return 1.0
+    return 2.0 ** (math.log2(FACE_RADIANCE_MAX) - math.ceil(math.log2(peak)))
 
 
 #: a mip pair at most this fraction of the opposite face's pair is a surface's back (vct_mip.comp's MIP_BACK_RATIO)

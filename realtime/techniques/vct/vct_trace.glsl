@@ -27,6 +27,9 @@ uniform int vct_cascades;
 uniform float vct_step;         // step along a cone, in units of its diameter there
 uniform float vct_start_voxels;  // first sample's distance from the (offset) origin, in voxels of the origin's cascade
 uniform float vct_normal_voxels; // the origin's offset along the normal, in the same voxels
+// the faces hold radiance times this power of two (vct_math.radiance_scale: 1 unless a bright environment would
+// overflow half float); vct_cone returns radiance in the scene's own units
+uniform float vct_radiance_scale;
 // the opacity read is clamped below 1 so that its optical depth -ln(1 - alpha) stays finite (13.8: opaque)
 #define VCT_MAX_ALPHA 0.999999
 // the cones' finer read is split into up to 2^VCT_FINE_SPLIT reads, VCT_FINE_SPLIT levels finer (vct_cone)
@@ -34,6 +37,11 @@ uniform float vct_normal_voxels; // the origin's offset along the normal, in the
 // a face read against the cone counts as a surface's back where it is at most this fraction of the face
 // the other way (vct_front, vct_axis_facing)
 #define VCT_BACK_RATIO 1e-3
+// A face no surface faces stores the normal 0 (bytes 128: vct_normal_bytes.glsl), which decodes to 0 exactly in
+// exact arithmetic; a fused multiply-add in the decode (which GLSL allows) leaves about 6e-8 per component. A
+// stored normal's smallest nonzero component is 1/127, so a normal counts as stored, and as facing a cone,
+// only beyond this length
+#define VCT_NORMAL_EPS 1e-6
 
 // The share of the normalised Phong lobe of exponent N about r above the surface (n . l > 0), cos_r = n . r
 // (vct_math.lobe_above_horizon mirrors it, with its derivation): the reference's Phong BSDF gives the lobe's
@@ -159,7 +167,7 @@ float vct_front(vec4 against, vec3 along, float rho_ref) {
 float vct_axis_facing(vec3 against, vec3 along, vec3 m) {
     float a = max(against.r, max(against.g, against.b));
     float b = max(along.r, max(along.g, along.b));
-    if (b > 0.0 && a <= VCT_BACK_RATIO * b) return dot(m, m) > 0.0 ? -1.0 : 0.0;
+    if (b > 0.0 && a <= VCT_BACK_RATIO * b) return dot(m, m) > VCT_NORMAL_EPS * VCT_NORMAL_EPS ? -1.0 : 0.0;
     if (a > 0.0 && b <= VCT_BACK_RATIO * a) return 1.0;
     return 0.0;
 }
@@ -185,8 +193,8 @@ float vct_axis_facing(vec3 against, vec3 along, vec3 m) {
 // closed solid, no longer blocks through the coarse read: the finer read (vct_cone) keeps every surface's
 // coverage, whichever way it faces, so such a surface still blocks where it crosses the cone's axis.
 vec3 vct_facing_axes(vec3 mx, vec3 my, vec3 mz, vec3 qx, vec3 qy, vec3 qz, vec3 d) {
-    bvec3 against = lessThan(vec3(dot(mx, d), dot(my, d), dot(mz, d)), vec3(0.0));
-    bvec3 along = lessThan(vec3(dot(qx, d), dot(qy, d), dot(qz, d)), vec3(0.0));
+    bvec3 against = lessThan(vec3(dot(mx, d), dot(my, d), dot(mz, d)), vec3(-VCT_NORMAL_EPS));
+    bvec3 along = lessThan(vec3(dot(qx, d), dot(qy, d), dot(qz, d)), vec3(-VCT_NORMAL_EPS));
     return vec3(against.x || along.x ? 1.0 : 0.0, against.y || along.y ? 1.0 : 0.0, against.z || along.z ? 1.0 : 0.0);
 }
 
@@ -217,7 +225,7 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 mx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x <= 0.0, local, c, mip);
     vec3 my = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y <= 0.0, local, c, mip);
     vec3 mz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z <= 0.0, local, c, mip);
-    vec3 sees = vec3(dot(mx, d) < 0.0 ? 1.0 : 0.0, dot(my, d) < 0.0 ? 1.0 : 0.0, dot(mz, d) < 0.0 ? 1.0 : 0.0);
+    vec3 sees = vec3(lessThan(vec3(dot(mx, d), dot(my, d), dot(mz, d)), vec3(-VCT_NORMAL_EPS)));
     // the along faces' normals: the surfaces covering each axis that face along d there
     vec3 qx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x > 0.0, local, c, mip);
     vec3 qy = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y > 0.0, local, c, mip);
@@ -341,7 +349,7 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         if (last) break;
         t += ds;
     }
-    return acc;
+    return vec4(acc.rgb / vct_radiance_scale, acc.a);
 }
 
 // the voxel size at p (that of the finest cascade holding it; h0 outside them all)
