@@ -37,7 +37,7 @@ import scenes
 from realtime.engine import gpu, limits
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
-from realtime.techniques.vct import vct_math
+from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene, scene_bounds
 from scenes.environment.shbasis import sh9
 
@@ -234,6 +234,42 @@ def box_with_opening(rho: float, hole: float):
             normal[axis] = -sign  # facing in
             out.append(obj(pts, tris, np.tile(normal, (len(pts), 1)), kd=(rho, rho, rho)))
     return out
+
+
+@pytest.mark.parametrize("control", [False, True])
+def test_a_bounce_pass_only_adds_light_to_the_direct_pass(ctx, monkeypatch, control):
+    """A bounce pass re-injects each face as the direct pass's light plus what its cones gather from the previous
+    bounce (>= 0), so no face of cornell-open (32^3, one cascade) may be darker with bounces = 2 than with
+    bounces = 1, to the faces' half-float rounding; the re-injected direct light must be the direct pass's.
+    Control: the bounce passes' cones taking their opacity from levels >= 1 as well (the earlier rule), where a
+    level-1 texel holds the surface's own layer: faces fell to 0.008 of the direct pass's."""
+    if control:
+        plain = vct.set_uniform
+
+        def old_rule(prog, name, value):
+            plain(prog, name, value)
+            if name == "vct_rgb_lod_min" and value > 0.0:
+                plain(prog, "lod_min", value)
+        monkeypatch.setattr(vct, "set_uniform", old_rule)
+    scene = scenes.load("builtin:cornell-open")
+    env = environment_store(ctx, scene)
+    env.fill_base(scene.environment.rotation_deg)
+    env.build_chain(None)
+    env.project_sh(64)
+    faces = {}
+    for bounces in (1, 2):
+        vs = VoxelScene(ctx, scene.objects, 32, 1, 6, 0.5, bounces=bounces, env_filter=env)
+        vs.update(None, env.sh_buffer)
+        faces[bounces] = vs.read_faces(0)[..., :3]
+        vs.release()
+    env.release()
+    lit = faces[1] > 1e-4
+    ratio = faces[2][lit] / faces[1][lit]
+    assert (faces[2].sum() > faces[1].sum()) and lit.sum() > 1000
+    if control:
+        assert ratio.min() < 0.5, ratio.min()
+    else:
+        assert ratio.min() >= 1.0 - 2.0 ** -10, ratio.min()  # half float: 11 significant bits
 
 
 def test_energy_grows_with_bounces_under_the_geometric_series(ctx):

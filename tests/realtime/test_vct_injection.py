@@ -185,7 +185,7 @@ def test_glossy_bounce_reflects_the_wall_it_faces(ctx):
     idx, x = plane_voxels(vs, 0.25, 0.45)
     direct = vs.read_faces(0)[:, 0]
     n = np.tile(NORMAL, (len(x), 1))
-    cones = vs.probe(x, n, lod_min=INJECT_LOD_MIN)  # before level 0 is rewritten: the bounce pass's view
+    cones = vs.probe(x, n, rgb_lod_min=INJECT_LOD_MIN)  # before level 0 is rewritten: the bounce pass's view
     vs.inject(0, 2, env.sh_buffer)
     bounced = vs.read_faces(0)[:, 0]
     vs.release()

@@ -90,12 +90,13 @@ NORMAL_OFFSET_VOXELS = 1.5
 START_OFFSET_VOXELS = 1.0
 #: faces of a voxel whose mean normals are closer than this cosine share one injection cone set
 SAME_NORMAL_COS = 0.95
-#: the bounce passes' cones read mips >= this inside every cascade: they gather the previous bounce's radiance,
-#: and the same pass overwrites level 0's rgb in each cascade (vct_trace.glsl's vct_cone floors the mip inside
-#: the cascade, not only the level over the pyramid, whose lod 1 is cascade 1's level 0). The direct pass reads
-#: level 0 too: its cones use only the opacities, which the coverage pass wrote and it rewrites unchanged (a
-#: level-1 texel near the surface holds the surface's own layer, which then occludes its own cones: cornell-open's
-#: indirect energy at 32^3 goes from 0.81 to 0.86 of the path tracer's one bounce with level 0 read)
+#: the bounce passes' cones read their radiance from mips >= this inside every cascade (vct_trace.glsl's
+#: vct_rgb_lod_min): they gather the previous bounce's radiance, and the same pass overwrites level 0's rgb in
+#: each cascade. Their opacity, like the direct pass's, comes from every level: the coverage pass wrote it and
+#: each pass rewrites it unchanged, and read from levels >= 1 a level-1 texel near the surface holds the surface's
+#: own layer, which then occludes its own cones (cornell-open's indirect energy at 32^3 goes from 0.81 to 0.86 of
+#: the path tracer's one bounce with level 0 read), so the direct light a bounce pass re-injected was darker
+#: than the direct pass's
 INJECT_LOD_MIN = 1.0
 #: injection's cones step this many times the shading's (`step`); 2 halves the injection's time on cornell-open but
 #: darkens the injected light by a fifth (Beer-Lambert over fewer samples), so it stays 1
@@ -334,7 +335,8 @@ class VoxelScene:
             self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
-        set_uniform(p, "lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
+        set_uniform(p, "lod_min", 0.0)
+        set_uniform(p, "vct_rgb_lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
         set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
         g = groups(self.resolution, 4)
         p.run(g, g, g)
@@ -405,6 +407,7 @@ class VoxelScene:
         set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
         set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
         set_uniform(prog, "vct_radiance_scale", self.radiance_scale)
+        set_uniform(prog, "vct_rgb_lod_min", 0.0)
         cones = self.cones
         dirs = np.zeros((9, 3), "f4")
         dirs[: len(cones.directions)] = cones.directions
@@ -475,8 +478,11 @@ class VoxelScene:
         occ[..., :3] = np.maximum(faces[0::2, ..., 3], faces[1::2, ..., 3]).transpose(1, 2, 3, 4, 0)
         self.columns.write(np.ascontiguousarray(occ.transpose(0, 3, 2, 1, 4).reshape(-1), dtype="f2").tobytes())
 
-    def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
-        """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility)."""
+    def probe(self, points: np.ndarray, normals: np.ndarray, lod_min: float = 0.0,
+              rgb_lod_min: float = 0.0) -> np.ndarray:
+        """The diffuse cones at points with normals: (N, 4) = (gathered irradiance rgb, visibility); `lod_min`
+        floors the levels the cones read, `rgb_lod_min` those of their radiance alone (a bounce pass's view:
+        INJECT_LOD_MIN)."""
         if self.probe_prog is None:
             self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp", package=__package__))
         p = self.probe_prog
@@ -484,10 +490,11 @@ class VoxelScene:
         data = np.zeros((n, 2, 4), "f4")
         data[:, 0, :3] = points
         data[:, 1, :3] = normals
-        return self._dispatch(p, data, "probe points", "the probe's points", lod_min)
+        return self._dispatch(p, data, "probe points", "the probe's points", lod_min, rgb_lod_min)
 
     def trace_cone(self, origins: np.ndarray, directions: np.ndarray, tan_half: np.ndarray, t0: np.ndarray,
-                   surfaces: np.ndarray, normals: np.ndarray, lod_min: float = 0.0) -> np.ndarray:
+                   surfaces: np.ndarray, normals: np.ndarray, lod_min: float = 0.0,
+                   rgb_lod_min: float = 0.0) -> np.ndarray:
         """Tests: single cones as the shading traces them (vct_trace.glsl's vct_cone): (N, 4) = (radiance
         gathered, occlusion) of the cones from `origins` along `directions` with tan(half-angle) `tan_half`,
         first sample at `t0`, leaving the surface through `surfaces` with `normals`."""
@@ -499,9 +506,10 @@ class VoxelScene:
         data[:, 0, :3], data[:, 0, 3] = origins, t0
         data[:, 1, :3], data[:, 1, 3] = directions, tan_half
         data[:, 2, :3], data[:, 3, :3] = surfaces, normals
-        return self._dispatch(p, data, "cones", "the cone probe's cones", lod_min)
+        return self._dispatch(p, data, "cones", "the cone probe's cones", lod_min, rgb_lod_min)
 
-    def _dispatch(self, prog, data: np.ndarray, key: str, what: str, lod_min: float) -> np.ndarray:
+    def _dispatch(self, prog, data: np.ndarray, key: str, what: str, lod_min: float,
+                  rgb_lod_min: float = 0.0) -> np.ndarray:
         """Run a trace-reading compute shader over the records in `data` (storage buffer 0), one
         invocation each, and read back its (N, 4) results (storage buffer 1) as float64."""
         n = len(data)
@@ -514,6 +522,7 @@ class VoxelScene:
             out.bind_to_storage_buffer(1)
             prog["count"] = n
             set_uniform(prog, "lod_min", lod_min)
+            set_uniform(prog, "vct_rgb_lod_min", rgb_lod_min)
             prog.run(groups(n, 64))
             self.ctx.memory_barrier()
             return np.frombuffer(out.read(), "f4").reshape(n, 4).astype(np.float64)

@@ -30,6 +30,9 @@ uniform float vct_normal_voxels; // the origin's offset along the normal, in the
 // the faces hold radiance times this power of two (vct_math.radiance_scale: 1 unless a bright environment would
 // overflow half float); vct_cone returns radiance in the scene's own units
 uniform float vct_radiance_scale;
+// the cones' radiance comes from mips >= this inside every cascade (the injection's bounce passes: 1), their
+// opacity from vct_cone's own lod_min (vct_cone)
+uniform float vct_rgb_lod_min;
 // the opacity read is clamped below 1 so that its optical depth -ln(1 - alpha) stays finite (13.8: opaque)
 #define VCT_MAX_ALPHA 0.999999
 // the cones' finer read is split into up to 2^VCT_FINE_SPLIT reads, VCT_FINE_SPLIT levels finer (vct_cone)
@@ -264,7 +267,7 @@ float vct_step_transmittance(vec3 alphas, vec3 d, float ds, float vs) {
 // (radiance gathered, occlusion). The level (vct_math.sample_lod mirrors it) follows the cone's diameter
 // 2 t tan_half (at least h0): lod = log2(diameter / h0) over the whole pyramid, the cascade floor(lod)
 // but never finer than the finest holding the sample, the mip lod - cascade (vct_math.Cascades.level_of).
-// `lod_min` keeps the injection's bounce passes off level 0 of every cascade (the level they rewrite).
+// `lod_min` floors the level read (and the mip inside its cascade); `vct_rgb_lod_min` the radiance's alone.
 // The footprint cap keeps the lookup off the surface the cone leaves (plane n through `surface`): the
 // trilinear, mip-linear lookup at lod reads the 2x2x2 texels around p at levels floor(lod) and ceil(lod);
 // those of the coarser level, of edge s = h0 2^ceil(lod), reach 1.5 s from p along each axis, so
@@ -305,6 +308,20 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         vec3 alphas;
         float front;
         vec4 s = vct_read(p, d, c, mip, alphas, front);
+        // The injection's bounce passes rewrite level 0's rgb in every cascade while their cones read, so the
+        // radiance comes from mips >= vct_rgb_lod_min (the texel of lod from a finer cascade's mip, as above);
+        // the opacity, which they rewrite unchanged, is read where the direct pass reads it, so that the direct
+        // light a bounce pass re-injects has the direct pass's visibility (read from levels >= 1, a level-1
+        // texel near the surface holds the surface's own layer, which occludes its own cones)
+        if (vct_rgb_lod_min > lod_min) {
+            float lod_rgb = max(lod, vct_rgb_lod_min);
+            int c_rgb = clamp(int(floor(lod_rgb - vct_rgb_lod_min)), inside, vct_cascades - 1);
+            float mip_rgb = clamp(max(lod_rgb - float(c_rgb), vct_rgb_lod_min), 0.0, max_mip);
+            if (c_rgb != c || mip_rgb != mip) {
+                vec3 unused;
+                s.rgb = vct_read(p, d, c_rgb, mip_rgb, unused, front).rgb;
+            }
+        }
         // Opacity also from the finer level whose texel is the step (ds = vct_step * diam: log2(vct_step)
         // levels below; the cascade's own level 0 at the finest): a coarse texel at a surface's edge averages
         // the surface with the open space beyond it, which a cone inside the surface's bounds cannot reach
