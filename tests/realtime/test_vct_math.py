@@ -472,3 +472,18 @@ def test_the_vct_model_version_enters_only_the_ids_of_rows_that_run_vct(monkeypa
     assert rows.content_id(with_vct) != before[0]
     assert rows.content_id(without) == before[1]
     assert rows.content_id(with_vct, reference_only=True) == rows.content_id(without, reference_only=True)
+
+
+def test_sum_scale_by_hand():
+    """The voxeliser's fixed-point scales: the default where T triangles adding `largest` * default each stay
+    within 2^31 - 1, else the largest power of two that does: 32,768 triangles of exponent 4096 at 16 reach
+    2^31 exactly (one too many), so 8; 40,000 at 4096: 2^31 / 1.64e8 = 13.1, so 8; 2^31 / 4096 triangles of
+    albedo 1 at 4096: 4096 (the default holds at 2^19 - 1 triangles, 2^19 of them get 2048)."""
+    assert vct_math.sum_scale(16.0, 32_767, 4096.0) == 16.0
+    assert vct_math.sum_scale(16.0, 32_768, 4096.0) == 8.0
+    assert vct_math.sum_scale(16.0, 40_000, 4096.0) == 8.0
+    assert vct_math.sum_scale(4096.0, 2 ** 19 - 1, 1.0) == 4096.0
+    assert vct_math.sum_scale(4096.0, 2 ** 19, 1.0) == 2048.0
+    assert vct_math.sum_scale(16.0, 10 ** 9, 4096.0) == 2.0 ** -11  # below one step a unit: still no overflow
+    assert 10 ** 9 * 4096.0 * vct_math.sum_scale(16.0, 10 ** 9, 4096.0) <= vct_math.INT32_MAX
+    assert vct_math.sum_scale(16.0, 0, 4096.0) == 16.0

@@ -43,7 +43,8 @@ def describe(rt) -> dict:
 #: read a coarser cascade's level 0 while it was written: bounces >= 2 with cascades >= 2 change);
 #: 6: the faces' radiance scaled into half float's range under a bright environment (vct_math.radiance_scale),
 #: a stored normal told from the empty one with a tolerance (images of ordinary scenes within 1.2e-7), and the
-#: bounce passes' cones take their opacity where the direct pass's do (bounces >= 2 change)
+#: bounce passes' cones take their opacity where the direct pass's do (bounces >= 2 change), and the voxeliser's
+#: fixed-point sums scaled down where a crowded voxel could overflow them
 MODEL_VERSION = 6
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,

@@ -124,9 +124,20 @@ EXPONENT_SCALE = 16.0
 #: exponents beyond this are summed as this (int32 sums of 16 N over a voxel's triangles; at N = 4096 the SH9
 #: convolution's band factors N / (N + 3) are within 0.1 % of a mirror's 1)
 MAX_EXPONENT = 4096.0
-COMPUTE_DEFINES = (f"VOXEL_INTS {VOXEL_INTS}", f"FACE_INTS0 {FACE_INTS0}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
-                   f"ALBEDO_SCALE {ALBEDO_SCALE!r}", f"NORMAL_SCALE {NORMAL_SCALE!r}",
-                   f"EXPONENT_SCALE {EXPONENT_SCALE!r}")
+
+
+def compute_defines(objects, triangle_count: int) -> tuple[str, ...]:
+    """The voxeliser's and injection's defines, the fixed-point scales of the int32 sums lowered where this
+    scene's triangles, all in one voxel, could overflow them (vct_math.sum_scale): per triangle a sum adds at
+    most the largest albedo (kd, ks, f0 and the Schlick flag), 1 (a face's normal weight and weighted normal) or
+    the largest exponent, each times its scale."""
+    refl = [reflectance_of(o.material) for o in objects]
+    albedo = max([1.0] + [float(max(np.max(kd), np.max(ks))) for kd, ks, *_ in refl])
+    exponent = max(float(e) for _, _, e, *_ in refl) if refl else 0.0
+    return (f"VOXEL_INTS {VOXEL_INTS}", f"FACE_INTS0 {FACE_INTS0}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
+            f"ALBEDO_SCALE {vct_math.sum_scale(ALBEDO_SCALE, triangle_count, albedo)!r}",
+            f"NORMAL_SCALE {vct_math.sum_scale(NORMAL_SCALE, triangle_count, 1.0)!r}",
+            f"EXPONENT_SCALE {vct_math.sum_scale(EXPONENT_SCALE, triangle_count, exponent)!r}")
 
 
 def reflectance_of(material) -> tuple[np.ndarray, np.ndarray, float, float, float]:
@@ -236,12 +247,13 @@ class VoxelScene:
             self.normals.append(tex)
         self.mip_levels = self.grid.levels
         here = __package__
-        self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", COMPUTE_DEFINES, package=here))
+        defines = compute_defines(objects, self.triangle_count)
+        self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", defines, package=here))
         self.env_filter = env_filter
         env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
-        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", COMPUTE_DEFINES + env_defines,
+        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", defines + env_defines,
                                                             package=here))
-        self.normals_prog = ctx.compute_shader(shader_source("vct_normals.comp", COMPUTE_DEFINES, package=here))
+        self.normals_prog = ctx.compute_shader(shader_source("vct_normals.comp", defines, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
         self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))

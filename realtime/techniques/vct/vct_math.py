@@ -17,6 +17,7 @@ or the GPU side needs without GL.
 - `normal_mip`: one level of the six face-normal textures' mip (the normal of what a viewer on each face's side
   sees, weighted as the faces composite their opacity), the reference for vct_normal_mip.comp.
 - `surface_voxel_bound`: the 4 pi r^2 / h^2 bound of a sphere's shell.
+- `sum_scale`: the voxeliser's fixed-point scales, lowered where a crowded voxel could overflow int32.
 - `radiance_scale`: the power of two the faces' radiance is stored times, so that a bright sun fits half float.
 """
 
@@ -231,6 +232,20 @@ def cascades_for(bounds_min: np.ndarray, bounds_max: np.ndarray, resolution: int
     outer = 0.5 * float((hi - lo).max()) * margin
     outer = max(outer, 1e-3)
     return Cascades(tuple(float(x) for x in centre), outer / 2.0 ** (count - 1), resolution, count)
+
+
+INT32_MAX = 2 ** 31 - 1
+
+
+def sum_scale(default: float, triangles: int, largest: float) -> float:
+    """The fixed-point scale of one of the voxeliser's int32 sums (vct_voxelize.comp adds round(value * scale)
+    per triangle and voxel): `default`, or where every one of the scene's `triangles` landing in one voxel, each
+    adding `largest` * default, could pass 2^31 - 1, the largest power of two that cannot (a mesh of 40,000
+    triangles of Phong exponent 4096 crowded into one voxel passed it at the exponent's default 16). The averages
+    the injection divides out are the same for any scale, to the rounding of one step 1 / scale."""
+    if triangles <= 0 or largest <= 0.0 or triangles * largest * default <= INT32_MAX:
+        return default
+    return 2.0 ** math.floor(math.log2(INT32_MAX / (triangles * largest)))
 
 
 #: the largest radiance the faces (RGBA16F) are let to hold: 2^14, four times under half float's largest value
