@@ -347,12 +347,34 @@ FILL_LEVEL = """#version 430
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(rgba16f, binding = 0) uniform writeonly image3D dst;
 uniform ivec3 size;
+uniform ivec3 offset;
 uniform vec4 value;
 void main() {
     ivec3 g = ivec3(gl_GlobalInvocationID);
-    if (all(lessThan(g, size))) imageStore(dst, g, value);
+    if (all(lessThan(g, size))) imageStore(dst, g + offset, value);
 }
 """
+
+
+def write_level_codes(ctx, vs, code) -> None:
+    """Every mip level k of every cascade c of every face holds the rgba code(k, c), opacity included, and its
+    normal the face's own direction (every face shows a surface's front)."""
+    fill = ctx.compute_shader(FILL_LEVEL)
+    fill_normal = ctx.compute_shader(FILL_LEVEL.replace("rgba16f", "rgba8"))
+    for f, (tex, normal) in enumerate(zip(vs.faces, vs.normals, strict=True)):
+        face_normal = (*((128.0 + 127.0 * np.array(vct_math.FACES[f])) / 255.0), 1.0)
+        for k in range(vs.grid.levels):
+            r = vs.resolution >> k
+            for c in range(vs.count):
+                for prog, target, value in ((fill, tex, code(k, c)), (fill_normal, normal, face_normal)):
+                    target.bind_to_image(0, read=False, write=True, level=k)
+                    prog["size"] = (r, r, r)
+                    prog["offset"] = (0, 0, c * r)
+                    prog["value"] = tuple(float(x) for x in value)
+                    prog.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
+    ctx.memory_barrier()
+    fill.release()
+    fill_normal.release()
 
 
 @pytest.fixture(scope="module")
@@ -361,23 +383,8 @@ def level_coded(ctx):
     direction (every face shows a surface's front), and the step is 4 cone diameters: a cone stops at its
     first sample (1 - 1e-4^4 opaque), whose red is the level it read (the mip-linear blend of two levels k
     and k + 1 at lod k + f is k + f)."""
-    res = 16
-    vs = blank_voxels(ctx, res, step=4.0)
-    fill = ctx.compute_shader(FILL_LEVEL)
-    fill_normal = ctx.compute_shader(FILL_LEVEL.replace("rgba16f", "rgba8"))
-    for f, (tex, normal) in enumerate(zip(vs.faces, vs.normals, strict=True)):
-        for k in range(vs.grid.levels):
-            r = res >> k
-            for prog, target, value in ((fill, tex, (float(k), 0.0, 0.0, 1.0)),
-                                        (fill_normal, normal, (*((128.0 + 127.0 * np.array(vct_math.FACES[f]))
-                                                                 / 255.0), 1.0))):
-                target.bind_to_image(0, read=False, write=True, level=k)
-                prog["size"] = (r, r, r)
-                prog["value"] = tuple(float(x) for x in value)
-                prog.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
-    ctx.memory_barrier()
-    fill.release()
-    fill_normal.release()
+    vs = blank_voxels(ctx, 16, step=4.0)
+    write_level_codes(ctx, vs, lambda k, c: (float(k), 0.0, 0.0, 1.0))
     yield vs
     vs.release()
 
@@ -424,8 +431,6 @@ def test_wider_aperture_reads_a_coarser_level(level_coded):
     assert np.allclose(r[:, 0], [0.0, math.log2(1.6), math.log2(3.2), 3.0], atol=0.02), r[:, 0]
 
 
-FILL_SLAB = FILL_LEVEL.replace("uniform ivec3 size;", "uniform ivec3 size;\nuniform ivec3 offset;").replace(
-    "imageStore(dst, g, value)", "imageStore(dst, g + offset, value)")
 #: level 0's code in `two_cascades_coded`: far from every mip level's, so a blend with it shows
 LEVEL0_CODE = 100.0
 
@@ -439,24 +444,7 @@ def two_cascades_coded(ctx):
     res, count = 16, 2
     plane = scenes.load("builtin:sphere-on-plane").objects[1]
     vs = VoxelScene(ctx, [plane], res, count, 6, 4.0, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, res, count))
-    fill = ctx.compute_shader(FILL_SLAB)
-    fill_normal = ctx.compute_shader(FILL_SLAB.replace("rgba16f", "rgba8"))
-    for f, (tex, normal) in enumerate(zip(vs.faces, vs.normals, strict=True)):
-        code = (128.0 + 127.0 * np.array(vct_math.FACES[f])) / 255.0
-        for k in range(vs.grid.levels):
-            r = res >> k
-            for c in range(count):
-                level = LEVEL0_CODE if k == 0 else float(k)
-                for prog, target, value in ((fill, tex, (level, float(c), 0.0, 1.0)),
-                                            (fill_normal, normal, (*code, 1.0))):
-                    target.bind_to_image(0, read=False, write=True, level=k)
-                    prog["size"] = (r, r, r)
-                    prog["offset"] = (0, 0, c * r)
-                    prog["value"] = tuple(float(x) for x in value)
-                    prog.run((r + 3) // 4, (r + 3) // 4, (r + 3) // 4)
-    ctx.memory_barrier()
-    fill.release()
-    fill_normal.release()
+    write_level_codes(ctx, vs, lambda k, c: (LEVEL0_CODE if k == 0 else float(k), float(c), 0.0, 1.0))
     yield vs
     vs.release()
 
