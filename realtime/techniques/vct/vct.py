@@ -126,12 +126,11 @@ EXPONENT_SCALE = 16.0
 MAX_EXPONENT = 4096.0
 
 
-def compute_defines(objects, triangle_count: int) -> tuple[str, ...]:
+def compute_defines(refl: list, triangle_count: int) -> tuple[str, ...]:
     """The voxeliser's and injection's defines, the fixed-point scales of the int32 sums lowered where this
     scene's triangles, all in one voxel, could overflow them (vct_math.sum_scale): per triangle a sum adds at
     most the largest albedo (kd, ks, f0 and the Schlick flag), 1 (a face's normal weight and weighted normal) or
-    the largest exponent, each times its scale."""
-    refl = [reflectance_of(o.material) for o in objects]
+    the largest exponent, each times its scale. `refl`: each object's reflectance_of."""
     albedo = max([1.0] + [float(max(np.max(kd), np.max(ks))) for kd, ks, *_ in refl])
     exponent = max(float(e) for _, _, e, *_ in refl) if refl else 0.0
     return (f"VOXEL_INTS {VOXEL_INTS}", f"FACE_INTS0 {FACE_INTS0}", f"SAME_NORMAL_COS {SAME_NORMAL_COS!r}",
@@ -247,7 +246,8 @@ class VoxelScene:
             self.normals.append(tex)
         self.mip_levels = self.grid.levels
         here = __package__
-        defines = compute_defines(objects, self.triangle_count)
+        refl = [reflectance_of(o.material) for o in objects]
+        defines = compute_defines(refl, self.triangle_count)
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", defines, package=here))
         self.env_filter = env_filter
         env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
@@ -260,7 +260,7 @@ class VoxelScene:
         # the faces store radiance times this (vct_math.radiance_scale): the environment's brightest radiance
         # (without the frame's environment store, as in some tests, its SH9 stands in and nothing is scaled)
         peak = 0.0 if env_filter is None else float(np.max(env_filter.radiance)) * max(
-            float(np.max(kd) + np.max(ks)) for kd, ks, *_ in map(reflectance_of, (o.material for o in objects)))
+            float(np.max(kd) + np.max(ks)) for kd, ks, *_ in refl)
         self.radiance_scale = vct_math.radiance_scale(peak * bounces)
         self.probe_prog = None
         self.cone_prog = None

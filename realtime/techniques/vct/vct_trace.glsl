@@ -277,10 +277,19 @@ float vct_step_transmittance(vec3 alphas, vec3 d, float ds, float vs) {
 // (height / |n|_1 - h0) / 1.5, so lod <= lod_cap = floor(log2(s_max / h0)). Where the cone is narrower
 // than that its own width governs; where wider (a plane's diffuse cones, whose 2 tan_half >= 0.9 exceed
 // the cap's at most 2/3 of the height, all along the cone) the sample reads the capped level.
+// The cascade and the mip inside it (`mip`) that read a texel of lod (vct_math.Cascades.level_of mirrors it):
+// the cascade floor(lod), never finer than `inside`, the finest holding the sample. `mip_floor` also floors the
+// mip inside the cascade: the injection's bounce passes rewrite level 0 of every cascade, so their cones take a
+// texel of lod from a finer cascade's mip >= mip_floor, never from a coarser cascade's level 0.
+int vct_level(float lod, float mip_floor, int inside, out float mip) {
+    int c = clamp(int(floor(lod - mip_floor)), inside, vct_cascades - 1);
+    mip = clamp(max(lod - float(c), mip_floor), 0.0, log2(float(vct_resolution)));
+    return c;
+}
+
 vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3 surface, vec3 n) {
     vec4 acc = vec4(0.0);
     float t = t0;
-    float max_mip = log2(float(vct_resolution));
     for (int i = 0; i < 512 && acc.a < 0.995; ++i) {
         vec3 p = origin + t * d;
         int inside = vct_cascade_of(p);
@@ -300,11 +309,8 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         float lod_cone = log2(max(2.0 * t * tan_half, vct_voxel) / vct_voxel);
         float diam = vct_voxel * exp2(min(lod_cone, lod_cap));
         float lod = max(min(lod_cone, lod_cap), lod_min);
-        // lod_min also floors the mip inside the cascade (vct_math.Cascades.level_of's mip_min): the bounce
-        // passes rewrite level 0 of every cascade, so their cones take a texel of lod from a finer cascade's
-        // mip >= lod_min, never from a coarser cascade's level 0
-        int c = clamp(int(floor(lod - lod_min)), inside, vct_cascades - 1);
-        float mip = clamp(max(lod - float(c), lod_min), 0.0, max_mip);
+        float mip;
+        int c = vct_level(lod, lod_min, inside, mip);
         vec3 alphas;
         float front;
         vec4 s = vct_read(p, d, c, mip, alphas, front);
@@ -314,9 +320,8 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         // light a bounce pass re-injects has the direct pass's visibility (read from levels >= 1, a level-1
         // texel near the surface holds the surface's own layer, which occludes its own cones)
         if (vct_rgb_lod_min > lod_min) {
-            float lod_rgb = max(lod, vct_rgb_lod_min);
-            int c_rgb = clamp(int(floor(lod_rgb - vct_rgb_lod_min)), inside, vct_cascades - 1);
-            float mip_rgb = clamp(max(lod_rgb - float(c_rgb), vct_rgb_lod_min), 0.0, max_mip);
+            float mip_rgb;
+            int c_rgb = vct_level(max(lod, vct_rgb_lod_min), vct_rgb_lod_min, inside, mip_rgb);
             if (c_rgb != c || mip_rgb != mip) {
                 vec3 unused;
                 s.rgb = vct_read(p, d, c_rgb, mip_rgb, unused, front).rgb;
