@@ -263,6 +263,8 @@ MUTANTS: list[tuple[str, str, str, str]] = [
     ("realtime/techniques/vct/vct_trace.glsl", "mip = clamp(max(lod - float(c), mip_floor), 0.0,",
      "mip = clamp(lod - float(c), 0.0,",
      "VCT: the bounce passes' cones read level 0 of the coarse cascade a sample lies in, which those passes rewrite"),
+    ("realtime/techniques/vct/vct_trace.glsl", "i < vct_max_samples && acc.a < 0.995", "i < 512 && acc.a < 0.995",
+     "VCT: cones stop after a fixed 512 samples, short of what a grazing cone needs to leave the cascades"),
     ("realtime/techniques/vct/vct_normal_mip.comp", "ivec3 pf = sign_ > 0 ? p + e : p;",
      "ivec3 pf = sign_ > 0 ? p : p + e;", "VCT: the normals' mip composited in the opposite face's order"),
     ("realtime/techniques/vct/vct_inject.comp", "L[f] += (1.0 - F) * kd / PI * done_E[k].rgb;",

@@ -19,7 +19,8 @@
 - the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light;
 - opacity: a tilted plane covers each axis by |n_a| / |n|_inf; layers of normal y cut a cone by the same
   product at any angle; a cone alongside a wall passes; the column texture keeps a texel's most covered
-  column, and the finer read counts its own texel's length; a closed thin-walled box leaks under 1 %.
+  column, and the finer read counts its own texel's length; a closed thin-walled box leaks under 1 %;
+- a cone grazing a floor reaches a wall across the outermost cascade, however many samples it takes.
 """
 
 from __future__ import annotations
@@ -813,6 +814,35 @@ def test_cone_alongside_a_wall_is_not_blocked_by_it(ctx, coverage):
         assert r[3] < 0.02, r
     else:
         assert r[3] > 0.5, r
+
+
+@pytest.mark.parametrize("res,cascades,step", [(64, 4, 0.5), (32, 1, 0.04)])
+@pytest.mark.parametrize("wall", [True, False])
+def test_grazing_cone_reaches_a_wall_across_the_outermost_cascade(ctx, res, cascades, step, wall):
+    """A thin cone (1 degree) leaving a floor level with it, capped at the finest voxel all the way (its height
+    above the floor stays half a voxel), toward an opaque wall near the far side of the outermost cascade:
+    the wall blocks it (opacity over 0.99), however many samples the cone needs to get there (64^3 x 4
+    cascades: 461 finest voxels away; 32^3 at step 0.04: 27 voxels, 675 samples at the finest pace). Control
+    (no wall): the cone passes (under 0.01), so the opacity is the wall's. Before the samples' bound
+    (vct_math.max_cone_samples) such cones stopped after 512 samples short of the wall and read it as open
+    sky: a capped cone steps half a finest voxel even through a coarse cascade."""
+    plane = scenes.load("builtin:sphere-on-plane").objects[1]
+    half = 0.25 if cascades > 1 else 1.0
+    vs = VoxelScene(ctx, [plane], res, cascades, 6, step,
+                    grid=vct_math.Cascades((0.0, 0.0, 0.0), half, res, cascades))
+    h0 = vs.grid.voxel_size
+    he = vs.grid.half_extent_of(cascades - 1)
+    faces = np.zeros((6, cascades, res, res, res, 4), "f4")
+    if wall:
+        faces[0:2, cascades - 1, res - 4, :, :, 3] = 1.0  # opaque along x, the outermost cascade's layer
+    vs.write_level0(faces)
+    vs.build_mips()
+    origin = np.array([-0.9 * he, 0.3 * h0, 0.013 * he])
+    floor = origin - np.array([0.0, 0.5 * h0, 0.0])
+    r = vs.trace_cone(origin[None], np.array([[1.0, 0.0, 0.0]]), np.array([math.tan(math.radians(1.0))]),
+                      np.array([h0]), floor[None], np.array([[0.0, 1.0, 0.0]]))[0]
+    vs.release()
+    assert (r[3] > 0.99) if wall else (r[3] < 0.01), r
 
 
 @pytest.mark.parametrize("cos_n", [1.0, 0.6, 0.35])

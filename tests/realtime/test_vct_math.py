@@ -418,6 +418,41 @@ def test_sample_lod_by_hand():
     assert vct_math.sample_lod(1.0, 0.6, 6.0, up, 0.25) == (pytest.approx(math.log2(4.8)), pytest.approx(1.2))
 
 
+def samples_to_leave(grid: vct_math.Cascades, origin: np.ndarray, d: np.ndarray, step: float) -> int:
+    """The samples a cone capped at the finest voxel all the way (every step `step` h0, the shortest a cone
+    takes) from `origin` along `d` takes before its sample leaves the outermost cascade, counted by stepping."""
+    t, count = 0.0, 0
+    while grid.cascade_of(origin + t * d) >= 0:
+        count += 1
+        t += step * grid.voxel_size
+    return count + 1
+
+
+@pytest.mark.parametrize("resolution,cascades,step", [(16, 1, 0.5), (16, 3, 0.5), (8, 4, 0.3), (32, 2, 1.5)])
+def test_no_cone_takes_more_samples_than_the_loop_allows(resolution, cascades, step):
+    """max_cone_samples bounds the samples of every cone, counted by stepping from 300 random points and
+    directions and along the outermost cascade's diagonal (the grazing cone's worst case: every step at the
+    finest voxel's): none takes more than the bound, and the longest takes over half of it (the bound is not
+    loose). Control: with several cascades, the bound of one cascade of the finest voxel (a fixed bound
+    that ignores the coarser cascades' extent) is exceeded along the diagonal."""
+    rng = np.random.default_rng(7)
+    grid = vct_math.Cascades((0.1, -0.2, 0.3), 1.0, resolution, cascades)
+    bound = vct_math.max_cone_samples(resolution, cascades, step)
+    he = grid.half_extent_of(cascades - 1)
+    worst = 0
+    for _ in range(300):
+        origin = np.asarray(grid.centre) + rng.uniform(-he, he, 3) * 0.95
+        d = rng.normal(size=3)
+        worst = max(worst, samples_to_leave(grid, origin, d / np.linalg.norm(d), step))
+    corner = np.asarray(grid.centre) - 0.999 * he * (1.0 - 1.0 / resolution)
+    along_diagonal = samples_to_leave(grid, corner, np.ones(3) / math.sqrt(3.0), step)
+    worst = max(worst, along_diagonal)
+    assert worst <= bound
+    assert worst > 0.5 * bound, (worst, bound)
+    if cascades > 1:
+        assert along_diagonal > vct_math.max_cone_samples(resolution, 1, step)
+
+
 @pytest.mark.parametrize("count", [4, 6, 9])
 def test_diffuse_cones_leaving_a_plane_read_the_capped_level(count):
     """What the docs state: every diffuse cone of 4, 6 or 9 is wider than the footprint cap allows anywhere

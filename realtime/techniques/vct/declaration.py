@@ -44,8 +44,11 @@ def describe(rt) -> dict:
 #: 6: the faces' radiance scaled into half float's range under a bright environment (vct_math.radiance_scale),
 #: a stored normal told from the empty one with a tolerance (images of ordinary scenes within 1.2e-7), and the
 #: bounce passes' cones take their opacity where the direct pass's do (bounces >= 2 change), and the voxeliser's
-#: fixed-point sums scaled down where a crowded voxel could overflow them
-MODEL_VERSION = 6
+#: fixed-point sums scaled down where a crowded voxel could overflow them;
+#: 7: a cone's samples bounded so that it always reaches the outermost cascade's boundary
+#: (vct_math.max_cone_samples; a fixed 512 had cut cones grazing a surface short, which then read open sky
+#: beyond: only those change, ordinary images are bit-identical)
+MODEL_VERSION = 7
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

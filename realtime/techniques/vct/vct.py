@@ -350,6 +350,8 @@ class VoxelScene:
         set_uniform(p, "lod_min", 0.0)
         set_uniform(p, "vct_rgb_lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
         set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
+        set_uniform(p, "vct_max_samples", vct_math.max_cone_samples(self.grid.resolution, self.grid.count,
+                                                                    self.step * INJECT_STEP_FACTOR))
         g = groups(self.resolution, 4)
         p.run(g, g, g)
         self.ctx.memory_barrier()
@@ -416,6 +418,7 @@ class VoxelScene:
         set_uniform(prog, "vct_resolution", g.resolution)
         set_uniform(prog, "vct_cascades", g.count)
         set_uniform(prog, "vct_step", self.step)
+        set_uniform(prog, "vct_max_samples", vct_math.max_cone_samples(g.resolution, g.count, self.step))
         set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
         set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
         set_uniform(prog, "vct_radiance_scale", self.radiance_scale)

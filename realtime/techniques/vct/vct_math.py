@@ -11,6 +11,7 @@ or the GPU side needs without GL.
   `level_of` is the seed's level selection (the cone's diameter picks the cascade and its mip).
 - `footprint_cap` and `sample_lod`: the level a cone sample reads (vct_trace.glsl's `vct_cone`): the
   cone's diameter, capped where the lookup would reach the voxels of the surface the cone leaves.
+- `max_cone_samples`: the loop bound that lets every cone reach the outermost cascade's boundary.
 - `anisotropic_mip`: one level of the six-face mip (front-to-back along each axis, then averaged, the radiance
   over the opacity of the pairs that are not a surface's back),
   the reference the GPU's vct_mip.comp is tested against.
@@ -211,6 +212,16 @@ def footprint_cap(height: float, normal: np.ndarray, voxel: float) -> float:
     n1 = float(np.abs(np.asarray(normal, dtype=np.float64)).sum())
     s_max = (height / n1 - voxel) / 1.5
     return float(math.floor(math.log2(max(s_max, voxel) / voxel)))
+
+
+def max_cone_samples(resolution: int, cascades: int, step: float) -> int:
+    """The most samples a cone can take before it leaves the outermost cascade (vct_trace.glsl's loop bound),
+    so that no cone is cut short. A cone steps `step` times its footprint, which is at least a finest voxel
+    h0 (a cone grazing a surface stays capped there, whichever cascade it crosses), so at least step h0; a
+    straight line crosses the outermost cascade's box over at most its diagonal,
+    2 sqrt(3) (resolution / 2) h0 2^(C - 1). So at most sqrt(3) resolution 2^(C - 1) / step + 1 samples lie
+    inside, plus the last one clamped to the boundary."""
+    return math.ceil(math.sqrt(3.0) * resolution * 2 ** (cascades - 1) / step) + 2
 
 
 def sample_lod(t: float, tan_half: float, height: float, normal: np.ndarray, voxel: float,

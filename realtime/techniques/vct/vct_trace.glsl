@@ -25,6 +25,8 @@ uniform float vct_voxel;        // edge of a finest-cascade voxel (h0)
 uniform int vct_resolution;     // voxels per side of every cascade
 uniform int vct_cascades;
 uniform float vct_step;         // step along a cone, in units of its diameter there
+// samples a cone may take: enough to reach the outermost cascade's boundary (vct_math.max_cone_samples)
+uniform int vct_max_samples;
 uniform float vct_start_voxels;  // first sample's distance from the (offset) origin, in voxels of the origin's cascade
 uniform float vct_normal_voxels; // the origin's offset along the normal, in the same voxels
 // the faces hold radiance times this power of two (vct_math.radiance_scale: 1 unless a bright environment would
@@ -290,7 +292,7 @@ int vct_level(float lod, float mip_floor, int inside, out float mip) {
 vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3 surface, vec3 n) {
     vec4 acc = vec4(0.0);
     float t = t0;
-    for (int i = 0; i < 512 && acc.a < 0.995; ++i) {
+    for (int i = 0; i < vct_max_samples && acc.a < 0.995; ++i) {
         vec3 p = origin + t * d;
         int inside = vct_cascade_of(p);
         bool last = inside < 0;
