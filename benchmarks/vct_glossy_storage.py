@@ -84,43 +84,37 @@ def mirror(incident: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 
 class Sender:
-    """The glossy exitance of torus points: ks times the lobe's mean of the environment above them."""
+    """What torus points send: per point, from one set of directions of its lobe about a mirror direction."""
 
     def __init__(self, env: np.ndarray, rotation_deg: float, samples: int) -> None:
         self.env, self.rotation_deg, self.samples = env, rotation_deg, samples
 
-    def _lobe(self, p: np.ndarray, n: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def lobe(self, p: np.ndarray, n: np.ndarray, r: np.ndarray) -> np.ndarray:
+        """(M, 7): ks times the lobe's mean of the environment seen unoccluded above p (rgb), the same ignoring
+        occlusion (rgb), and the share of the lobe's directions above p that are unoccluded."""
         w = lobe_directions(r, self.samples, np.random.default_rng(3))
         above = (w * n[:, None]).sum(-1) > 0.0
         blocked, _ = march(np.broadcast_to(p[:, None] + EPSILON * n[:, None], w.shape).copy(), w)
-        return w, above, blocked
-
-    def exitance(self, p: np.ndarray, n: np.ndarray, r: np.ndarray, occluded: bool = True) -> np.ndarray:
-        w, above, blocked = self._lobe(p, n, r)
-        seen = above & ~blocked if occluded else above
+        seen = above & ~blocked
         radiance = envmap.lookup(self.env, w, self.rotation_deg).astype(np.float64)
-        return KS * (radiance * seen[..., None]).mean(1)
-
-    def visibility(self, p: np.ndarray, n: np.ndarray, r: np.ndarray) -> np.ndarray:
-        _, above, blocked = self._lobe(p, n, r)
-        return np.where(above.any(1), (above & ~blocked).sum(1) / np.maximum(above.sum(1), 1), 1.0)
+        visibility = np.where(above.any(1), seen.sum(1) / np.maximum(above.sum(1), 1), 1.0)
+        return np.concatenate([KS * (radiance * seen[..., None]).mean(1), KS * (radiance * above[..., None]).mean(1),
+                               visibility[:, None]], 1)
 
 
-def face_blend(w: np.ndarray, n: np.ndarray, per_face) -> np.ndarray:
+def face_blend(w: np.ndarray, n: np.ndarray, per_face) -> tuple[np.ndarray, np.ndarray]:
     """The six-face read along w of a surface of normal n: per axis the face pointing against w, weighted
-    w_a^2 times the axis's coverage, where the surface faces it; per_face(f, mirror direction) gives the
-    face's value, (M,) or (M, 3)."""
+    w_a^2 times the axis's coverage, where the surface faces it; per_face(mirror direction) gives the face's
+    values (M, K). Returns the blend (M, K) and where any face carries light (M,)."""
     cover = np.abs(n) / np.abs(n).max(-1, keepdims=True)
     num, den = 0.0, np.zeros(len(w))
     for a in range(3):
         f = np.zeros_like(w)
         f[:, a] = -np.sign(w[:, a])
         weight = w[:, a] ** 2 * cover[:, a] * ((n * f).sum(-1) > 0.0)
-        value = per_face(mirror(-f, n))
-        num = num + (weight[:, None] * value if value.ndim == 2 else weight * value)
+        num = num + weight[:, None] * per_face(mirror(-f, n))
         den += weight
-    safe = np.maximum(den, 1e-12)
-    return num / (safe[:, None] if np.ndim(num) == 2 else safe), den > 0.0
+    return num / np.maximum(den, 1e-12)[:, None], den > 0.0
 
 
 def main() -> None:
@@ -154,12 +148,11 @@ def main() -> None:
     ok = met & above
     y, wy = y[ok], w[ok]
     ny = torus_normal(y)
-    r_exact = mirror(wy, ny)
-    exact = sender.exitance(y, ny, r_exact)
-    faces, carried = face_blend(wy, ny, lambda r: sender.exitance(y, ny, r))
-    faces[~carried] = 0.0
-    vis, carried_v = face_blend(wy, ny, lambda r: sender.visibility(y, ny, r))
-    deferred = np.where(carried_v[:, None], sender.exitance(y, ny, r_exact, occluded=False) * vis[:, None], 0.0)
+    at_mirror = sender.lobe(y, ny, mirror(wy, ny))
+    blend, carried = face_blend(wy, ny, lambda r: sender.lobe(y, ny, r))
+    exact = at_mirror[:, :3]
+    faces = np.where(carried[:, None], blend[:, :3], 0.0)
+    deferred = np.where(carried[:, None], at_mirror[:, 3:6] * blend[:, 6:7], 0.0)
 
     def bounce(values: np.ndarray) -> float:
         full = np.zeros(w.shape)

@@ -51,13 +51,13 @@ def test_six_face_read_along_an_axis_is_that_face():
     direction, here +y itself); a constant blends to itself from any direction; a surface facing away from
     every face the cone reads carries nothing."""
     n = np.array([[0.0, 1.0, 0.0]])
-    value, carried = model.face_blend(np.array([[0.0, -1.0, 0.0]]), n, lambda r: r[:, 1] + 10.0 * r[:, 0])
-    assert carried[0] and value[0] == pytest.approx(1.0)
+    value, carried = model.face_blend(np.array([[0.0, -1.0, 0.0]]), n, lambda r: r[:, 1:2] + 10.0 * r[:, 0:1])
+    assert carried[0] and value[0, 0] == pytest.approx(1.0)
     rng = np.random.default_rng(4)
     w = rng.normal(size=(50, 3))
     w /= np.linalg.norm(w, axis=-1, keepdims=True)
     tilted = np.tile(np.array([[0.3, 0.8, 0.52]]) / np.linalg.norm([0.3, 0.8, 0.52]), (50, 1))
-    value, carried = model.face_blend(w, tilted, lambda r: np.full(len(r), 0.7))
+    value, carried = model.face_blend(w, tilted, lambda r: np.full((len(r), 1), 0.7))
     assert carried.sum() > 10 and np.allclose(value[carried], 0.7)
-    _, carried = model.face_blend(np.array([[0.0, 1.0, 0.0]]), n, lambda r: np.ones(len(r)))
+    _, carried = model.face_blend(np.array([[0.0, 1.0, 0.0]]), n, lambda r: np.ones((len(r), 1)))
     assert not carried[0]

@@ -335,7 +335,7 @@ class VoxelScene:
 
     def inject(self, cascade: int, mode: int, sh_buffer: moderngl.Buffer) -> None:
         p = self.inject_prog
-        self.bind_trace(p)
+        self.bind_trace(p, step=self.step * INJECT_STEP_FACTOR)
         self.bind_scratch(p, cascade)
         sh_buffer.bind_to_storage_buffer(2)
         if self.env_filter is not None:
@@ -349,9 +349,6 @@ class VoxelScene:
         p["inject"] = mode
         set_uniform(p, "lod_min", 0.0)
         set_uniform(p, "vct_rgb_lod_min", 0.0 if mode == 1 else INJECT_LOD_MIN)
-        set_uniform(p, "vct_step", self.step * INJECT_STEP_FACTOR)
-        set_uniform(p, "vct_max_samples", vct_math.max_cone_samples(self.grid.resolution, self.grid.count,
-                                                                    self.step * INJECT_STEP_FACTOR))
         g = groups(self.resolution, 4)
         p.run(g, g, g)
         self.ctx.memory_barrier()
@@ -402,7 +399,10 @@ class VoxelScene:
             self.ctx.memory_barrier()
 
     # -- tracing uniforms -----------------------------------------------------------------------
-    def bind_trace(self, prog: moderngl.Program) -> None:
+    def bind_trace(self, prog: moderngl.Program, step: float | None = None) -> None:
+        """The voxels and the cones' uniforms for a program that includes vct_trace.glsl; `step` (default the
+        table's) sets the cones' step and the loop bound that follows from it."""
+        step = self.step if step is None else step
         for f, tex in enumerate(self.faces):
             tex.use(FACE_UNIT0 + f)
             set_uniform(prog, f"vct_face_{FACE_NAMES[f]}", FACE_UNIT0 + f)
@@ -417,8 +417,8 @@ class VoxelScene:
         set_uniform(prog, "vct_voxel", g.voxel_size)
         set_uniform(prog, "vct_resolution", g.resolution)
         set_uniform(prog, "vct_cascades", g.count)
-        set_uniform(prog, "vct_step", self.step)
-        set_uniform(prog, "vct_max_samples", vct_math.max_cone_samples(g.resolution, g.count, self.step))
+        set_uniform(prog, "vct_step", step)
+        set_uniform(prog, "vct_max_samples", vct_math.max_cone_samples(g.resolution, g.count, step))
         set_uniform(prog, "vct_start_voxels", START_OFFSET_VOXELS)
         set_uniform(prog, "vct_normal_voxels", NORMAL_OFFSET_VOXELS)
         set_uniform(prog, "vct_radiance_scale", self.radiance_scale)
