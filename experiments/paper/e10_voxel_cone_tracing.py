@@ -11,7 +11,9 @@ Per configuration: the voxel memory (six RGBA16F faces with their mips, every ca
 direct-only pass's (the cones run inside `draw`).
 
 Energy, in linear radiance over the covered pixels against the path tracer at max_depth 2 (direct light with
-occlusion), 3, 4, 5 (one, two, three bounces): at each resolution (the best setting's cascades and cones) the
+occlusion), 3, 4, 5 (one, two, three bounces), the real-time images rendered `Settings.energy_subpixels` times
+larger and box-reduced (scenes.model.render.box_downsample) so that their pixels are area integrals as the path
+tracer's are: at each resolution (the best setting's cascades and cones) the
 indirect energy ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and at the best setting the same for
 `[realtime.vct] bounces` 1, 2, 3 against depth 2 + bounces.
 The thin-wall hard case (thin-wall scene, realtime.vct.VoxelScene.probe): the irradiance the cones find
@@ -49,6 +51,7 @@ from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment.directions import rotation_xyz
 from scenes.geometry import meshes
+from scenes.model.render import Render, box_downsample
 from scenes.model.scene import Material
 
 NUMBER = 10
@@ -68,6 +71,11 @@ class Settings:
     leak_offsets: int  # grid placements of the thin-wall leak (the first is the grid's own)
     leak_rotations: tuple[tuple[float, float, float], ...]  # the thin-wall scene turned (rotation_xyz, degrees)
     ladder: bool  # PRT and light-array rows beside VCT's
+    # the energy table's real-time images are rendered this many times larger per axis and box-reduced: a
+    # point sample at a silhouette pixel's centre stands for the whole pixel, where the path tracer integrates
+    # the part the object covers (torus-phong's glossy bounce sits in such pixels: at 64^3 and 192^2 px its
+    # ratio reads 1.64 point-sampled, 1.40 integrated over 4 x 4 rays a pixel)
+    energy_subpixels: int
     storage: e10_voxel_storage.Settings  # the seed's storage comparison on the procedural atrium
 
     def __post_init__(self) -> None:
@@ -78,14 +86,14 @@ class Settings:
 
 QUICK = Settings(grid=((32, 1, 6), (64, 2, 6)), frames=1, bounces=(1, 2), energy_resolutions=(32, 64),
                  leak_resolutions=(32, 64), leak_offsets=2, leak_rotations=((0.0, 0.0, 0.0), (20.0, 25.0, 0.0)),
-                 ladder=True, storage=e10_voxel_storage.QUICK)
+                 ladder=True, energy_subpixels=2, storage=e10_voxel_storage.QUICK)
 # a subset of 32/64/128 x 1/2/3 cascades x 4/6/9 cones that fits the suite's time here (128^3 takes about 15 s a
 # frame on llvmpipe, its injection most of it): every resolution at one cascade, 2 and 3 cascades at 64^3, and 4
 # and 9 cones at 64^3 x 2; one timed frame after one warm-up frame
 FULL = Settings(grid=((32, 1, 6), (64, 1, 6), (128, 1, 6), (64, 2, 6), (64, 3, 6), (64, 2, 4), (64, 2, 9)),
                 frames=1, bounces=(1, 2, 3), energy_resolutions=(32, 64, 128), leak_resolutions=(32, 64, 128),
                 leak_offsets=5, leak_rotations=((0.0, 0.0, 0.0), (20.0, 25.0, 0.0)), ladder=True,
-                storage=e10_voxel_storage.FULL)
+                energy_subpixels=4, storage=e10_voxel_storage.FULL)
 #: the energy table also gives the share of each one-bounce image's light held by its brightest 2 % of pixels:
 #: a mean ratio near or far from 1 can hide where the light sits (torus-phong's glossy bounce: a few pixels)
 BRIGHTEST = 0.02
@@ -170,30 +178,39 @@ def linear_mean(img, mask) -> float:
     return float(img.rgb[mask].mean())
 
 
+def area_render(scene, subpixels: int) -> Render:
+    """The real-time image of `scene` with each pixel the mean of subpixels x subpixels point samples (rendered
+    that much larger, box-reduced), as the path tracer's pixels are area means."""
+    large = scene.with_overrides({"camera.width": scene.camera.width * subpixels,
+                                  "camera.height": scene.camera.height * subpixels})
+    return box_downsample(realtime.render(large), subpixels)
+
+
 def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:
     """Linear radiance means over the pixels covered in every image: the real-time occlusion-only and
     occlusion + interreflection images at each resolution of `s.energy_resolutions` (the best setting's
     cascades and cones) and, at the best setting, for each of `s.bounces`; the path tracer at max_depth 2
-    (direct with occlusion), 2 + each bounce count, and full depth."""
+    (direct with occlusion), 2 + each bounce count, and full depth. The real-time images are area means over
+    `s.energy_subpixels`^2 samples a pixel (`area_render`)."""
     base = {**context.base(), "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
     scene = scenes.load(spec).with_overrides(base)
     occ_ov = {k: v for k, v in best.items() if k != "realtime.interreflection"}
     cascades, cones = occ_ov["realtime.vct.cascades"], occ_ov["realtime.vct.diffuse_cones"]
-    renders = {}
+    renders, sub = {}, s.energy_subpixels
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        renders["direct"] = realtime.render(scene)
+        renders["direct"] = area_render(scene, sub)
         for res in s.energy_resolutions:
             ov = vct_ov(res, cascades, cones, False)
-            renders[("occ", res)] = realtime.render(scene.with_overrides(ov))
-            renders[("all", res, 1)] = realtime.render(scene.with_overrides({**ov, "realtime.interreflection": "vct"}))
+            renders[("occ", res)] = area_render(scene.with_overrides(ov), sub)
+            renders[("all", res, 1)] = area_render(scene.with_overrides({**ov, "realtime.interreflection": "vct"}), sub)
         best_res = occ_ov["realtime.vct.resolution"]
         if ("occ", best_res) not in renders:
-            renders[("occ", best_res)] = realtime.render(scene.with_overrides(occ_ov))
+            renders[("occ", best_res)] = area_render(scene.with_overrides(occ_ov), sub)
         for b in s.bounces:
             if ("all", best_res, b) not in renders:
-                renders[("all", best_res, b)] = realtime.render(scene.with_overrides(
-                    {**occ_ov, "realtime.interreflection": "vct", "realtime.vct.bounces": b}))
+                renders[("all", best_res, b)] = area_render(scene.with_overrides(
+                    {**occ_ov, "realtime.interreflection": "vct", "realtime.vct.bounces": b}), sub)
     depths = sorted({2} | {2 + b for b in s.bounces})
     refs = {d: reference.render(scene.with_overrides({"reference.integrator": "path", "reference.max_depth": d}))
             for d in depths}

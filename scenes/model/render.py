@@ -29,3 +29,19 @@ class Render:
             raise ValueError(f"Render.mask {self.mask.shape} does not match rgb {self.rgb.shape[:2]}")
         if not np.isfinite(self.rgb).all():
             raise FloatingPointError("a renderer produced NaN or Inf radiance")
+
+
+def box_downsample(render: Render, factor: int) -> Render:
+    """The image a pixel `factor` times larger would show: each output pixel the mean of a factor x factor
+    block of `render`'s pixels (rgb), covered where at least half the block is, as the path tracer's box filter
+    and mask take a pixel (groundtruth/pathtracer/reference.py). A real-time image rendered at `factor` times
+    the size and reduced so is its pixels' area integral, which a point sample at the pixel's centre is not:
+    on a silhouette pixel the centre sample stands for the whole pixel, the path tracer's for the part the
+    object covers. Timings and meta are kept, with meta["subpixels"] = factor."""
+    h, w = render.mask.shape
+    if factor < 1 or h % factor or w % factor:
+        raise ValueError(f"box_downsample: factor {factor} does not divide the image's {w} x {h} pixels")
+    blocks = (h // factor, factor, w // factor, factor)
+    rgb = render.rgb.astype(np.float64).reshape(*blocks, 3).mean(axis=(1, 3)).astype(np.float32)
+    covered = render.mask.reshape(blocks).mean(axis=(1, 3)) >= 0.5
+    return Render(rgb=rgb, mask=covered, timings=dict(render.timings), meta={**render.meta, "subpixels": factor})

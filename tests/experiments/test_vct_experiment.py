@@ -121,3 +121,20 @@ def test_settings_without_one_bounce_are_refused():
     # the energy table's one-bounce columns compare with the path tracer's depth 3
     with pytest.raises(ValueError, match="bounces must include 1"):
         dataclasses.replace(e10.QUICK, bounces=(2, 3))
+
+
+@pytest.mark.gl
+@pytest.mark.mitsuba
+def test_area_render_covers_the_path_tracers_pixels():
+    """The energy table's real-time image, rendered 4 times larger and box-reduced, covers the pixels the path
+    tracer's half-coverage mask covers (torus-phong at 48 x 48: its rim is many half-covered pixels) up to a
+    few pixels on the silhouette. Control: the image with its rows in the wrong order covers other pixels."""
+    from groundtruth.pathtracer import reference
+
+    scene = scenes.load("builtin:torus-phong").with_overrides(
+        {"camera.width": 48, "camera.height": 48, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,
+         "reference.spp": 64, "reference.integrator": "path", "reference.max_depth": 2})
+    ours, theirs = e10.area_render(scene, 4), reference.render(scene)
+    assert ours.rgb.shape == theirs.rgb.shape and ours.meta["subpixels"] == 4
+    assert (ours.mask != theirs.mask).sum() <= 0.02 * theirs.mask.sum()
+    assert (ours.mask[::-1] != theirs.mask).sum() > 0.2 * theirs.mask.sum()
