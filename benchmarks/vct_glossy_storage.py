@@ -134,33 +134,17 @@ def face_blend(w: np.ndarray, n: np.ndarray, per_face) -> tuple[np.ndarray, np.n
     return num / np.maximum(den, 1e-12)[:, None], den > 0.0
 
 
-def pixel_rays(scene, pixels: int, subpixels: int) -> np.ndarray:
-    """(pixels, pixels, subpixels^2, 3) unit rays through a regular grid of subpixels^2 points in each pixel,
-    rows from the top, under the scene's pinhole camera (square image, fov across it)."""
-    cam = np.asarray(scene.camera.origin, float)
-    forward = np.asarray(scene.camera.target, float) - cam
-    forward /= np.linalg.norm(forward)
-    right = np.cross(forward, [0.0, 1.0, 0.0])
-    right /= np.linalg.norm(right)
-    up = np.cross(right, forward)
-    tan_half = math.tan(math.radians(scene.camera.fov_deg) / 2.0)
-    offsets = (np.arange(subpixels) + 0.5) / subpixels
-    s = ((np.arange(pixels)[:, None] + offsets) / pixels * 2.0 - 1.0).reshape(-1)
-    ys, xs = np.meshgrid(s, s, indexing="ij")
-    rays = forward + tan_half * (xs[..., None] * right - ys[..., None] * up)
-    rays /= np.linalg.norm(rays, axis=-1, keepdims=True)
-    k = subpixels
-    return rays.reshape(pixels, k, pixels, k, 3).transpose(0, 2, 1, 3, 4).reshape(pixels, pixels, k * k, 3)
-
-
 def one_bounce_images(scene, pixels: int, subpixels: int, lobe: int, sender_samples: int) -> dict[str, np.ndarray]:
-    """Per-pixel means over each pixel's subpixel rays (the path tracer's box filter; rays that miss the torus
-    add 0): the direct light ("direct"), the one bounce with the sender's exitance taken exactly, from six
-    faces, and deferred (above), rgb (pixels, pixels, 3) each; and "covered", the pixels at least half of
-    whose rays meet the torus (the path tracer's mask)."""
+    """Per-pixel means over each pixel's subpixel rays (the scene camera's `subpixel_rays`, averaged as the path
+    tracer's box filter averages them): what the camera sees with direct light only ("direct": the torus's
+    reflection of the environment, the environment itself where a ray misses), the one bounce with the
+    sender's exitance taken exactly, from six faces, and deferred (above; a ray that misses adds no bounce),
+    rgb (pixels, pixels, 3) each; and "covered", the pixels at least half of whose rays meet the torus (the
+    path tracer's mask)."""
     env = np.asarray(scene.environment.radiance(), np.float64)
     sender = Sender(env, scene.environment.rotation_deg, sender_samples)
-    rays = pixel_rays(scene, pixels, subpixels).reshape(-1, 3)
+    camera = scene.with_overrides({"camera.width": pixels, "camera.height": pixels}).camera
+    rays = camera.subpixel_rays(subpixels).reshape(-1, 3)
     cam = np.asarray(scene.camera.origin, float)
     hit, x = march(np.broadcast_to(cam, rays.shape).copy(), rays)
     x, view = x[hit], -rays[hit]
@@ -179,12 +163,13 @@ def one_bounce_images(scene, pixels: int, subpixels: int, lobe: int, sender_samp
                "six faces": np.where(carried[:, None], blend[:, :3], 0.0),
                "deferred": np.where(carried[:, None], at_mirror[:, 3:6] * blend[:, 6:7], 0.0)}
 
-    def image(values_at_hits: np.ndarray) -> np.ndarray:
-        full = np.zeros((len(rays), 3))
+    def image(values_at_hits: np.ndarray, background: np.ndarray | None = None) -> np.ndarray:
+        full = np.zeros((len(rays), 3)) if background is None else background
         full[hit] = values_at_hits
         return full.reshape(pixels, pixels, subpixels ** 2, 3).mean(2)
 
-    images = {"direct": image(sender.lobe(x, n, r)[:, :3])}
+    sky = envmap.lookup(env, rays, scene.environment.rotation_deg).astype(np.float64)
+    images = {"direct": image(sender.lobe(x, n, r)[:, :3], sky)}
     for name, values in per_ray.items():
         full = np.zeros((*w.shape[:2], 3))
         full[ok] = values

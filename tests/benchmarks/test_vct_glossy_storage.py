@@ -12,6 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import scenes
+
 ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("vct_glossy_storage", ROOT / "benchmarks" / "vct_glossy_storage.py")
 model = importlib.util.module_from_spec(_spec)
@@ -47,24 +49,12 @@ def test_rays_grazing_the_tube_are_resolved(above_top):
     assert bool(hit[0]) == (above_top < 0)
     if above_top < 0:
         assert abs(model.torus_distance(q[0])) < 1e-5
-        assert q[0, 0] == pytest.approx(-model.RING - np.sqrt(model.TUBE ** 2 - y ** 2), abs=2e-3)
+        # sphere tracing stops within 1e-5 of the surface, about 1e-3 short along so grazing a ray; the tube's
+        # top, 2.4e-3 further on, is out of the band
+        hit_x = -model.RING - np.sqrt(model.TUBE ** 2 - y ** 2)
+        assert hit_x - 1.5e-3 <= q[0, 0] <= hit_x + 1e-6
     with pytest.raises(RuntimeError, match="unresolved"):
         model.march(origin, direction, max_steps=200)
-
-
-def test_pixel_rays_follow_the_camera():
-    """The middle of the subpixel grid looks at the target, the first row up and the first column left."""
-    import scenes
-
-    scene = scenes.load("builtin:torus-phong")
-    rays = model.pixel_rays(scene, 4, 2)
-    forward = np.asarray(scene.camera.target, float) - np.asarray(scene.camera.origin, float)
-    forward /= np.linalg.norm(forward)
-    centre = rays[1:3, 1:3].reshape(-1, 3).mean(0)
-    assert centre / np.linalg.norm(centre) == pytest.approx(forward, abs=1e-9)
-    assert rays[0, 0, 0, 1] > rays[-1, 0, 0, 1]
-    right = np.cross(forward, [0.0, 1.0, 0.0])
-    assert rays[0, 0, 0] @ right < 0 < rays[0, -1, -1] @ right
 
 
 def test_lobe_samples_have_the_lobes_mean_cosine():
@@ -97,11 +87,10 @@ def test_six_face_read_along_an_axis_is_that_face():
 @pytest.mark.mitsuba
 def test_model_direct_light_is_the_path_tracers():
     """The model's direct light (its camera, pixel integration, probe orientation and lobe) against the path
-    tracer's max_depth 2 at the same 32 x 32 pixels: the means within 2 %, the per-pixel mean absolute error
-    under 10 % of the mean. Controls: the model's image mirrored left-right or upside down is far off (over
-    25 %), so the comparison can tell the camera's axes apart."""
-    import scenes
-
+    tracer's max_depth 2 at the same 32 x 32 pixels, the environment showing past the torus's edge in both: the
+    means within 1 %, the per-pixel mean absolute error (both sides' sampling noise) under 8 % of the mean.
+    Controls: the model's image mirrored left-right or upside down is far off (over 25 %), so the comparison
+    can tell the camera's axes apart."""
     scene = scenes.load("builtin:torus-phong")
     model_images = model.one_bounce_images(scene, 32, 4, 4, 32)
     path_direct, _, path_mask = model.path_traced_one_bounce(scene, 32, 256)
@@ -111,7 +100,7 @@ def test_model_direct_light_is_the_path_tracers():
         return np.abs(image[mask] - theirs[mask]).mean() / theirs[mask].mean()
 
     mask = model_images["covered"] & path_mask
-    assert ours[mask].mean() == pytest.approx(theirs[mask].mean(), rel=0.02)
-    assert relative_error(ours, mask) < 0.10
+    assert ours[mask].mean() == pytest.approx(theirs[mask].mean(), rel=0.01)
+    assert relative_error(ours, mask) < 0.08
     assert relative_error(ours[:, ::-1], mask & mask[:, ::-1]) > 0.25
     assert relative_error(ours[::-1], mask & mask[::-1]) > 0.25

@@ -31,13 +31,6 @@ def test_a_pixel_holds_its_covered_area(edge_subpixels, covered):
     assert coarse.rgb[0, 1] == pytest.approx([BACKGROUND] * 3) and not coarse.mask[0, 1]
 
 
-def test_a_centre_sample_is_not_the_area_integral():
-    """Control: the same half-covered pixel sampled once at its centre reads the object's whole radiance."""
-    centre = edge_render(2, 1.0 + 0.01)  # 2 x 2 pixels, the edge just past the first column's centre
-    assert centre.rgb[0, 0, 0] == OBJECT
-    assert box_downsample(edge_render(8, 2), 4).rgb[0, 0, 0] == pytest.approx((OBJECT + BACKGROUND) / 2)
-
-
 def test_rows_and_columns_keep_their_order_and_the_mean_is_kept():
     """A ramp rising down the rows and across the columns reduces to the ramp of the block centres."""
     y, x = np.mgrid[0:12, 0:6].astype(np.float64)
