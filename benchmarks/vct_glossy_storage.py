@@ -145,8 +145,7 @@ def one_bounce_images(scene, pixels: int, subpixels: int, lobe: int, sender_samp
     sender = Sender(env, scene.environment.rotation_deg, sender_samples)
     camera = scene.with_overrides({"camera.width": pixels, "camera.height": pixels}).camera
     rays = camera.subpixel_rays(subpixels).reshape(-1, 3)
-    cam = np.asarray(scene.camera.origin, float)
-    hit, x = march(np.broadcast_to(cam, rays.shape).copy(), rays)
+    hit, x = march(np.broadcast_to(np.asarray(camera.origin, float), rays.shape).copy(), rays)
     x, view = x[hit], -rays[hit]
     n = torus_normal(x)
     r = mirror(-view, n)
@@ -164,7 +163,7 @@ def one_bounce_images(scene, pixels: int, subpixels: int, lobe: int, sender_samp
                "deferred": np.where(carried[:, None], at_mirror[:, 3:6] * blend[:, 6:7], 0.0)}
 
     def image(values_at_hits: np.ndarray, background: np.ndarray | None = None) -> np.ndarray:
-        full = np.zeros((len(rays), 3)) if background is None else background
+        full = np.zeros((len(rays), 3)) if background is None else background.copy()
         full[hit] = values_at_hits
         return full.reshape(pixels, pixels, subpixels ** 2, 3).mean(2)
 

@@ -12,7 +12,7 @@ direct-only pass's (the cones run inside `draw`).
 
 Energy, in linear radiance over the covered pixels against the path tracer at max_depth 2 (direct light with
 occlusion), 3, 4, 5 (one, two, three bounces), the real-time images rendered `Settings.energy_subpixels` times
-larger and box-reduced (scenes.model.render.box_downsample) so that their pixels are area integrals as the path
+larger and box-reduced (scenes.model.render.pixel_area_means) so that their pixels are area integrals as the path
 tracer's are: at each resolution (the best setting's cascades and cones) the
 indirect energy ratio (VCT (c) - (b)) / (path depth 3 - depth 2), and at the best setting the same for
 `[realtime.vct] bounces` 1, 2, 3 against depth 2 + bounces.
@@ -51,7 +51,7 @@ from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment.directions import rotation_xyz
 from scenes.geometry import meshes
-from scenes.model.render import Render, box_downsample
+from scenes.model.render import Render, pixel_area_means
 from scenes.model.scene import Material
 
 NUMBER = 10
@@ -185,7 +185,7 @@ def area_render(scene, subpixels: int) -> Render:
     that much larger, box-reduced), as the path tracer's pixels are area means."""
     large = scene.with_overrides({"camera.width": scene.camera.width * subpixels,
                                   "camera.height": scene.camera.height * subpixels})
-    return box_downsample(realtime.render(large), subpixels)
+    return pixel_area_means(realtime.render(large), subpixels)
 
 
 def energy_split(context: Context, spec: str, best: dict, s: Settings) -> dict:

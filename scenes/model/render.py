@@ -31,7 +31,7 @@ class Render:
             raise FloatingPointError("a renderer produced NaN or Inf radiance")
 
 
-def box_downsample(render: Render, factor: int) -> Render:
+def pixel_area_means(render: Render, factor: int) -> Render:
     """The image a pixel `factor` times larger would show: each output pixel the mean of a factor x factor
     block of `render`'s pixels (rgb), covered where at least half the block is, as the path tracer's box filter
     and mask take a pixel (groundtruth/pathtracer/reference.py). A real-time image rendered at `factor` times
@@ -40,7 +40,7 @@ def box_downsample(render: Render, factor: int) -> Render:
     object covers. Timings and meta are kept, with meta["subpixels"] = factor."""
     h, w = render.mask.shape
     if factor < 1 or h % factor or w % factor:
-        raise ValueError(f"box_downsample: factor {factor} does not divide the image's {w} x {h} pixels")
+        raise ValueError(f"pixel_area_means: factor {factor} does not divide the image's {w} x {h} pixels")
     blocks = (h // factor, factor, w // factor, factor)
     rgb = render.rgb.astype(np.float64).reshape(*blocks, 3).mean(axis=(1, 3)).astype(np.float32)
     covered = render.mask.reshape(blocks).mean(axis=(1, 3)) >= 0.5
