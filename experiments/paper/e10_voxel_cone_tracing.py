@@ -161,10 +161,14 @@ def setting(r: ResultRow) -> tuple[int, int, int] | None:
 
 
 def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
-    """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent)."""
-    lo, hi = vct.scene_bounds(scenes.load(spec).objects)
+    """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent); a scene
+    with glossy surfaces stores the deferred glossy read's gloss textures too (VoxelScene's default)."""
+    objects = scenes.load(spec).objects
+    lo, hi = vct.scene_bounds(objects)
     g = vct_math.cascades_for(lo, hi, resolution, cascades)
-    return g.bytes_per_cascade(vct.BYTES_PER_VOXEL) * cascades, g.single_texture_bytes(vct.BYTES_PER_VOXEL)
+    glossy = vct.has_glossy([vct.reflectance_of(o.material) for o in objects])
+    per_voxel = vct.BYTES_PER_VOXEL + (vct.GLOSS_BYTES_PER_VOXEL if glossy else 0)
+    return g.bytes_per_cascade(per_voxel) * cascades, g.single_texture_bytes(per_voxel)
 
 
 def percent(x: float | None) -> str:
@@ -395,8 +399,10 @@ def run(context: Context, settings: Settings) -> Section:
             "voxelisation with the cone-traced injection (`voxelize`), the six-face mips (`mip`) and the shading "
             "pass (`draw`), llvmpipe on 2 shared cores. Trace ms: the shading pass's ms minus the same scene's "
             "direct-only pass (the cones run inside `draw`). Voxel MiB: six RGBA16F faces, the RGBA16F column "
-            f"texture and six RGBA8 face normals ({vct.BYTES_PER_VOXEL} bytes a voxel) with their mip chains for "
-            "every cascade, against one 3D texture with "
+            f"texture and six RGBA8 face normals ({vct.BYTES_PER_VOXEL} bytes a voxel; "
+            f"{vct.BYTES_PER_VOXEL + vct.GLOSS_BYTES_PER_VOXEL} with the six RGBA16F gloss textures of the deferred "
+            "glossy read, in scenes with a glossy surface) with their mip chains for every cascade, against one 3D "
+            "texture with "
             "the finest voxel over the outermost "
             "extent. Mean radiances are linear, over the pixels covered in every image; path depth 2 is direct "
             "light with occlusion, depth 2 + k adds k bounces; VCT's k bounces are `[realtime.vct] bounces = k` "

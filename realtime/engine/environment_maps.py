@@ -222,7 +222,8 @@ class MapStore:
         return (DEFINES[self.parameterization], f"ENV_LOD_OFFSET {lod_offset(self.mapping, self.base_size)!r}",
                 f"ENV_MAX_LOD {float(self.n_levels - 1)!r}")
 
-    def bind_lookup(self, prog: moderngl.Program, unit: int) -> None:
+    def bind_lookup(self, prog: moderngl.Program, unit: int, cube_uniform: str = "env_cube") -> None:
+        """The store on `unit`, read through env_map.glsl's own uniforms (`cube_uniform` is the cube store's)."""
         self.texture.use(unit)
         if "env_map" in prog:
             prog["env_map"] = unit

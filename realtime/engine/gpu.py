@@ -61,7 +61,8 @@ def expand_includes(text: str, package: str | None = None) -> str:
 def with_defines(text: str, defines: tuple[str, ...]) -> str:
     """`#define`s inserted after #version. A define is "NAME" or "NAME VALUE"."""
     head, _, rest = text.partition("\n")
-    return head + "\n" + "".join(f"#define {d}\n" for d in defines) + rest
+    # two techniques may ask for the same define (the environment store's lookup): once each
+    return head + "\n" + "".join(f"#define {d}\n" for d in dict.fromkeys(defines)) + rest
 
 
 def shader_source(name: str, defines: tuple[str, ...] = (), package: str | None = None) -> str:
@@ -230,9 +231,10 @@ class EnvironmentFilter:
     def lookup_defines(self) -> tuple[str, ...]:
         return ()
 
-    def bind_lookup(self, prog: moderngl.Program, unit: int) -> None:
+    def bind_lookup(self, prog: moderngl.Program, unit: int, cube_uniform: str = "env_cube") -> None:
+        """The store on `unit`, read through the sampler `cube_uniform` (voxel cone tracing's is its own)."""
         self.cube.use(unit)
-        _set(prog, "env_cube", unit)
+        _set(prog, cube_uniform, unit)
 
     def meta(self) -> dict:
         return {"environment_store": {"parameterization": "cube", "face_size": self.base_size, "layers": 6,

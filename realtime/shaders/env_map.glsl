@@ -7,6 +7,9 @@
 // of a level-0 texel), so the level of equal solid angle is
 //     lod + 0.5 log2(Omega_ref / A0) - 0.5 log2(dOmega/dA(p)) = lod + ENV_LOD_OFFSET - 0.5 log2(density)
 // clamped to the chain [0, ENV_MAX_LOD]. ENV_LOD_OFFSET and ENV_MAX_LOD are #defined by the host.
+// included once per shader (the glossy box and voxel cone tracing's deferred glossy read may both need it)
+#ifndef ENV_MAP_GLSL
+#define ENV_MAP_GLSL
 uniform sampler2DArray env_map;
 uniform mat3 env_frame;  // world -> the map's frame
 
@@ -27,3 +30,4 @@ vec3 env_map_radiance(vec3 r, float lod) {
     float level = clamp(lod + ENV_LOD_OFFSET - 0.5 * log2(m.w), 0.0, ENV_MAX_LOD);
     return textureLod(env_map, vec3(0.5 * m.xy + 0.5, m.z), level).rgb;
 }
+#endif

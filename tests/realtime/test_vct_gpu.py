@@ -1163,7 +1163,8 @@ def test_a_crowded_voxel_averages_as_one_triangle(ctx, monkeypatch, control):
     triangles, all in one voxel, could pass 2^31 - 1 (vct_math.sum_scale). Control: the default scales, whose
     exponent sum (16 x 4096 a triangle) wraps past 32,768 copies into a negative mean exponent, whose lobe reads
     another level of the environment's chain (the faces differ by up to 0.0068 on llvmpipe; with the scale,
-    not at all)."""
+    not at all). With the deferred glossy read (the frame's default for a glossy surface) the exponent is stored
+    in the gloss textures, which are compared as well (the control's wrapped exponent turns negative there)."""
     if control:
         monkeypatch.setattr(vct_math, "sum_scale", lambda default, triangles, largest: default)
     scene = scenes.load("builtin:sphere-phong")
@@ -1183,11 +1184,12 @@ def test_a_crowded_voxel_averages_as_one_triangle(ctx, monkeypatch, control):
     for k in (1, 40_000):
         vs = VoxelScene(ctx, copies(k), 16, 1, 6, 0.5, grid=grid, env_filter=env)  # the lobe from the chain
         vs.update(None, env.sh_buffer)
-        faces.append(vs.read_faces(0))
+        assert vs.deferred_glossy
+        faces.append(np.concatenate([vs.read_faces(0), vs.read_gloss(0)], axis=-1))
         vs.release()
     env.release()
     one, crowded = faces
-    lit = one[..., :3] > 1e-3
+    lit = one[..., 4:7] > 1e-3  # the lobe's weight
     assert lit.sum() >= 3  # the triangle's voxels show its light
     same = np.isfinite(crowded).all() and np.allclose(crowded, one, rtol=2e-3, atol=1e-4)
     assert same != control

@@ -11,6 +11,10 @@ what leaves toward +y, whose mirror direction r = +x points into the wall, the +
 
 Negative controls: the rule with the diffuse cones' visibility (ks L0 V_d, ks (L0 V_d + E_b / pi) in a
 bounce pass), with V_d the cosine-weighted share the wall leaves open, which the same checks reject.
+
+The tests of the faces' stored lobe (the chain's level, the world direction, the horizon share) build the six-face
+storage (`deferred_glossy=False`): the deferred glossy read reads the same L_g (vct_glossy_env.glsl) and horizon
+share (vct_lobe_above) toward each cone, tests/realtime/test_vct_deferred_glossy.py checks its direction.
 """
 
 from __future__ import annotations
@@ -140,19 +144,22 @@ def face_radiance(faces: np.ndarray, f: int, idx: np.ndarray) -> np.ndarray:
     return v[:, :3].mean(axis=1) / v[:, 3]
 
 
-@pytest.mark.parametrize("env_chain", [False, True], ids=["sh9", "env-chain"])
-def test_glossy_face_injects_only_the_lobe_share_the_wall_leaves_open(ctx, env_chain):
+@pytest.mark.parametrize("store", ["sh9", "env-chain", "deferred"])
+def test_glossy_face_injects_only_the_lobe_share_the_wall_leaves_open(ctx, store):
     """Direct pass: the +y face (r = +x, into the wall) holds ks L0 times the lobe's open share (about 0),
     the +x face (r = +y, open) ks L0 times its share (about 1): within 0.05 ks L0 each, in every plane
-    voxel 0.2 to 0.4 from the wall. Control: the diffuse cones' rule, ks L0 V_d with V_d the cosine-weighted
-    open share (about 0.5), is rejected by the same bound on the +y face."""
+    voxel 0.2 to 0.4 from the wall. With the deferred glossy read the faces' gloss texels hold the lobe's
+    weight ks V_g instead (L0 = 1: the same figures). Control: the diffuse cones' rule, ks L0 V_d with V_d the
+    cosine-weighted open share (about 0.5), is rejected by the same bound on the +y face."""
 
     env = constant_sky(ctx)
     vs = VoxelScene(ctx, plane_and_wall(KD_WALL), RES, 1, 6, 0.5, bounces=1, grid=GRID,
-                    env_filter=env if env_chain else None)
+                    env_filter=None if store == "sh9" else env, deferred_glossy=store == "deferred")
     vs.update(None, env.sh_buffer)
     idx, x = plane_voxels(vs, 0.2, 0.4)
     faces = vs.read_faces(0)[:, 0]
+    if store == "deferred":  # the lobe's weight over the faces' coverage
+        faces = np.concatenate([vs.read_gloss(0)[:, 0, ..., :3], faces[..., 3:]], axis=-1)
     vs.release()
     env.release()
     assert len(idx) >= 20
@@ -177,7 +184,8 @@ def test_glossy_bounce_reflects_the_wall_it_faces(ctx):
     texels average the wall's radiance over two voxels: 3 voxels from the wall, the darker foot of the
     wall reads 20 % high). Control: the diffuse cones' rule ks (L0 V_d + E_b / pi), V_d and E_b the cones'
     visibility and gathered irradiance at the same voxels (VoxelScene.probe at the bounce passes' levels),
-    falls outside."""
+    falls outside. The voxels read the glossy term deferred (the frame's default), so the face holds ks L_w and
+    the gloss texel the ks s the read evaluates: s is about 0 here, so the same bound holds."""
 
     env = constant_sky(ctx)
     vs = VoxelScene(ctx, plane_and_wall(KD_WALL), RES, 1, 6, 0.5, bounces=1, grid=GRID, env_filter=env)
@@ -236,7 +244,7 @@ def test_frame_injection_reads_the_lobe_level_of_the_environment_chain(ctx):
                                 exponent=CHAIN_EXPONENT)
     plane = SimpleNamespace(mesh=scene.objects[1].mesh, material=phong)
     vs = VoxelScene(ctx, [plane], 32, 1, 6, 0.5, grid=vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1),
-                    env_filter=env)
+                    env_filter=env, deferred_glossy=False)
     vs.update(None, env.sh_buffer)
     up = vs.read_faces(0)[FACE_PY, 0, 8:24, 15, 8:24].reshape(-1, 4)
     got = up[:, :3] / up[:, 3:4] / KS
@@ -278,7 +286,7 @@ def test_frame_injection_looks_up_the_world_direction_in_a_turned_environment(ct
     wall = quad(np.array([0.0, -1.5, -1.5]), np.array([0.0, 3.0, 0.0]), np.array([0.0, 0.0, 3.0]),
                 np.array([1.0, 0.0, 0.0]), phong)
     vs = VoxelScene(ctx, [wall], 32, 1, 6, 0.5, grid=vct_math.Cascades((0.5 * 4.4 / 32, 0.0, 0.0), 2.2, 32, 1),
-                    env_filter=env)
+                    env_filter=env, deferred_glossy=False)
     vs.update(None, env.sh_buffer)
     east = vs.read_faces(0)[FACE_PX, 0, 15, 8:24, 8:24].reshape(-1, 4)
     got = east[:, :3] / east[:, 3:4] / KS
@@ -310,7 +318,7 @@ def test_a_grazing_glossy_face_injects_the_lobes_share_above_the_horizon(ctx, ti
     centre = np.asarray(GRID.centre)
     plane = quad(centre - 0.8 * t - np.array([0.0, 0.0, 0.8]), 1.6 * t, np.array([0.0, 0.0, 1.6]), n, phong)
     env = constant_sky(ctx)
-    vs = VoxelScene(ctx, [plane], RES, 1, 6, 0.5, bounces=1, grid=GRID, env_filter=env)
+    vs = VoxelScene(ctx, [plane], RES, 1, 6, 0.5, bounces=1, grid=GRID, env_filter=env, deferred_glossy=False)
     vs.update(None, env.sh_buffer)
     occ = vs.occupied(0)
     faces = vs.read_faces(0)[:, 0]

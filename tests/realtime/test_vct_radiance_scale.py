@@ -7,7 +7,9 @@ value is 65504, and a 1e6 sun's glossy reflection is far above it.
   (exponent 1000, a sky whose sun is 1e3 times its zenith) times 1000 is what they gather under the same sky
   1000 times brighter (its sun 1e6 times the zenith's radiance), to half float's precision. Control: with the
   scale held at 1, the brighter sky's faces clip at half float's largest value and the gathered light falls
-  short of the linear answer.
+  short of the linear answer. Both with the faces storing the glossy reflection (the six-face storage) and with
+  the deferred glossy read (the frame's default), which stores the lobe's weight and evaluates the environment in
+  single float at the read; the control needs the stored reflection (the deferred read has nothing to clip).
 """
 
 from __future__ import annotations
@@ -36,7 +38,7 @@ def test_radiance_scale_by_hand():
             vct_math.radiance_scale(bad)
 
 
-def gathered(ctx, env_scale: float, monkeypatch=None) -> tuple[np.ndarray, float]:
+def gathered(ctx, env_scale: float, monkeypatch=None, deferred: bool = False) -> tuple[np.ndarray, float]:
     """The diffuse cones' gathered irradiance at 200 points around a Phong torus (exponent 1000) under the sky
     (sun 1e3) times `env_scale`, 32^3, one cascade; and the voxels' radiance scale."""
     if monkeypatch is not None:
@@ -49,7 +51,7 @@ def gathered(ctx, env_scale: float, monkeypatch=None) -> tuple[np.ndarray, float
     env.fill_base(scene.environment.rotation_deg)
     env.build_chain(None)
     env.project_sh(64)
-    vs = VoxelScene(ctx, objects, 32, 1, 6, 0.5, env_filter=env)
+    vs = VoxelScene(ctx, objects, 32, 1, 6, 0.5, env_filter=env, deferred_glossy=deferred)
     vs.update(None, env.sh_buffer)
     rng = np.random.default_rng(7)
     d = rng.normal(size=(200, 3))
@@ -63,10 +65,11 @@ def gathered(ctx, env_scale: float, monkeypatch=None) -> tuple[np.ndarray, float
 
 
 @pytest.mark.gl
-def test_gathered_light_is_linear_in_a_bright_environment():
+@pytest.mark.parametrize("deferred", [False, True], ids=["six-faces", "deferred"])
+def test_gathered_light_is_linear_in_a_bright_environment(deferred):
     ctx = get_context()
-    dim, s_dim = gathered(ctx, 1.0)
-    bright, s_bright = gathered(ctx, 1000.0)
+    dim, s_dim = gathered(ctx, 1.0, deferred=deferred)
+    bright, s_bright = gathered(ctx, 1000.0, deferred=deferred)
     assert s_dim == 1.0 and s_bright < 1.0
     lit = dim.max(axis=1) > 1e-3 * dim.max()
     assert lit.sum() > 20  # the probe sees the torus's reflections

@@ -48,7 +48,10 @@ def describe(rt) -> dict:
 #: 7: a cone's samples bounded so that it always reaches the outermost cascade's boundary
 #: (vct_math.max_cone_samples; a fixed 512 had cut cones grazing a surface short, which then read open sky
 #: beyond: only those change, ordinary images are bit-identical)
-MODEL_VERSION = 7
+#: 8: the deferred glossy read: where a scene has glossy surfaces, a cone evaluates their environment term toward
+#: itself from a stored lobe weight and exponent (vct_trace.glsl's vct_gloss_radiance) instead of reading the
+#: faces' six stored directions (scenes without glossy surfaces are unchanged)
+MODEL_VERSION = 8
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

@@ -37,6 +37,12 @@ Every frame (timed `voxelize`, its mips as `mip`):
    radiance is being written). Faced faces carry the full radiance, the others none, each times
    its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
+   The deferred glossy read (`deferred_glossy`: a scene with glossy surfaces under the frame's environment
+   store): the faces leave out the glossy term's environment part L_g(r) V_g, and six more RGBA16F gloss
+   textures hold per face the lobe's weight F ks V_g and its exponent (48 bytes a voxel more), mipped as the
+   radiance is; a cone reading a face evaluates the surfaces' lobe toward itself, F ks V_g H L_g(reflect(d, m)),
+   m the face's stored normal (vct_trace.glsl's vct_gloss_radiance), where six stored directions would hand it
+   the blend of six reflections.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
 cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
@@ -111,9 +117,15 @@ ENV_UNIT = COLUMN_UNIT + 1
 COLUMN_IMAGE = 6
 #: texture units of the six face-normal textures (after the environment's chain)
 NORMAL_UNIT0 = ENV_UNIT + 1
+#: texture units of the six gloss textures (the deferred glossy read), and the images the injection writes them
+#: through (after the faces' 0..5 and the column texture's 6)
+GLOSS_UNIT0 = NORMAL_UNIT0 + 6
+GLOSS_IMAGE0 = COLUMN_IMAGE + 1
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
 #: six RGBA16F faces, the RGBA16F column texture and six RGBA8 face normals
 BYTES_PER_VOXEL = 7 * 8 + 6 * 4
+#: the deferred glossy read's six RGBA16F gloss textures, on top
+GLOSS_BYTES_PER_VOXEL = 6 * 8
 #: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
 VOXEL_INTS = 34
 FACE_INTS0 = 10
@@ -137,6 +149,12 @@ def compute_defines(refl: list, triangle_count: int) -> tuple[str, ...]:
             f"ALBEDO_SCALE {vct_math.sum_scale(ALBEDO_SCALE, triangle_count, albedo)!r}",
             f"NORMAL_SCALE {vct_math.sum_scale(NORMAL_SCALE, triangle_count, 1.0)!r}",
             f"EXPONENT_SCALE {vct_math.sum_scale(EXPONENT_SCALE, triangle_count, exponent)!r}")
+
+
+def has_glossy(refl: list) -> bool:
+    """Whether some object's reflectance has a glossy term the injection traces (ks > 0 and F > 0 somewhere:
+    f0 > 0 or Schlick's); `refl`: each object's reflectance_of."""
+    return any(np.any(np.asarray(ks) > 0.0) and (f0 > 0.0 or schlick > 0.0) for _, ks, _, f0, schlick in refl)
 
 
 def reflectance_of(material) -> tuple[np.ndarray, np.ndarray, float, float, float]:
@@ -201,11 +219,15 @@ class VoxelScene:
     """The scene's voxel cascades on the GPU: voxelised, injected and mipmapped once per frame."""
 
     def __init__(self, ctx: moderngl.Context, objects, resolution: int, cascades: int, diffuse_cones: int,
-                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None, env_filter=None) -> None:
+                 step: float, bounces: int = 1, grid: vct_math.Cascades | None = None, env_filter=None,
+                 deferred_glossy: bool | None = None) -> None:
         """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
         `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for);
         `env_filter`: the frame's environment store, whose chain the injection reads for the glossy lobe
-        (None: the SH9 radiance, vct_inject.comp)."""
+        (None: the SH9 radiance, vct_inject.comp); `deferred_glossy`: the cones evaluate the glossy surfaces'
+        environment term toward themselves (vct_trace.glsl's vct_gloss_radiance) instead of reading it as the
+        faces stored it toward their axes; None: wherever some surface is glossy and the environment store is
+        given (it needs the store's chain)."""
         self.ctx = ctx
         self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
         lo, hi = scene_bounds(objects)
@@ -247,14 +269,37 @@ class VoxelScene:
         self.mip_levels = self.grid.levels
         here = __package__
         refl = [reflectance_of(o.material) for o in objects]
+        if deferred_glossy is None:
+            deferred_glossy = env_filter is not None and has_glossy(refl)
+        if deferred_glossy and env_filter is None:
+            raise ValueError("the deferred glossy read needs the frame's environment store (env_filter)")
+        self.deferred_glossy = bool(deferred_glossy)
+        self.gloss = []
+        for _ in range(6 if self.deferred_glossy else 0):
+            tex = ctx.texture3d(size, 4, dtype="f2")
+            tex.build_mipmaps()  # allocates the chain; vct_mip.comp (VCT_MIP_GLOSS) writes it
+            tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
+            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
+            self.gloss.append(tex)
         defines = compute_defines(refl, self.triangle_count)
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", defines, package=here))
         self.env_filter = env_filter
         env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
-        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", defines + env_defines,
+        #: what every program that reads the cones' radiance (vct_trace.glsl) is compiled with: the shading pass's
+        #: too. The injection's direct pass uses the cones' opacities only, so its program stores the gloss
+        #: (VCT_DEFERRED_GLOSSY) without reading it (VCT_GLOSS_READ): llvmpipe runs both sides of a branch masked,
+        #: and a uniform switch cost the direct pass the read's time all the same
+        self.trace_defines = ("VCT_DEFERRED_GLOSSY", "VCT_GLOSS_READ", *env_defines) if self.deferred_glossy else ()
+        store = ("VCT_DEFERRED_GLOSSY",) if self.deferred_glossy else ()
+        self.inject_prog = ctx.compute_shader(shader_source("vct_inject.comp", defines + env_defines + store,
                                                             package=here))
+        self._bounce_source = shader_source("vct_inject.comp", defines + env_defines + self.trace_defines,
+                                            package=here)
+        self.bounce_prog = None  # the bounce passes' program, compiled when first needed (bounce_program)
         self.normals_prog = ctx.compute_shader(shader_source("vct_normals.comp", defines, package=here))
         self.mip_prog = ctx.compute_shader(shader_source("vct_mip.comp", package=__package__))
+        self.gloss_mip_prog = (ctx.compute_shader(shader_source("vct_mip.comp", ("VCT_MIP_GLOSS",), package=here))
+                               if self.deferred_glossy else None)
         self.normal_mip_prog = ctx.compute_shader(shader_source("vct_normal_mip.comp", package=__package__))
         self.column_mip_prog = ctx.compute_shader(shader_source("vct_column_mip.comp", package=__package__))
         # the faces store radiance times this (vct_math.radiance_scale): the environment's brightest radiance
@@ -293,7 +338,7 @@ class VoxelScene:
                 self.inject(c, 1 if bounce == 1 else 2, sh_buffer)
             ctx.finish()
             t0 = time.perf_counter()
-            self.build_mips(normals=False)
+            self.build_mips(normals=False, gloss=bounce == 1)
             mip_ms += self._finish_ms(t0)
         del R
         ctx.memory_barrier()
@@ -333,18 +378,28 @@ class VoxelScene:
         p.run(g, g, g)
         self.ctx.memory_barrier()
 
+    def bounce_program(self) -> moderngl.ComputeShader:
+        """The injection's program for the bounce passes, which read the cones' radiance (VCT_GLOSS_READ)."""
+        if not self.deferred_glossy:
+            return self.inject_prog
+        if self.bounce_prog is None:
+            self.bounce_prog = self.ctx.compute_shader(self._bounce_source)
+        return self.bounce_prog
+
     def inject(self, cascade: int, mode: int, sh_buffer: moderngl.Buffer) -> None:
-        p = self.inject_prog
+        p = self.bounce_program() if mode == 2 else self.inject_prog
         self.bind_trace(p, step=self.step * INJECT_STEP_FACTOR)
         self.bind_scratch(p, cascade)
         sh_buffer.bind_to_storage_buffer(2)
         if self.env_filter is not None:
-            self.env_filter.bind_lookup(p, ENV_UNIT)
-            set_uniform(p, "env_base_size", float(self.env_filter.base_size))
+            self.env_filter.bind_lookup(p, ENV_UNIT, cube_uniform="vct_env_cube")
+            set_uniform(p, "vct_env_base_size", float(self.env_filter.base_size))
         for f, tex in enumerate(self.faces):
             tex.bind_to_image(f, read=False, write=True, level=0)
         if mode == 0:
             self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
+        for f, tex in enumerate(self.gloss):  # written by the coverage and direct passes, read by the bounce passes
+            tex.bind_to_image(GLOSS_IMAGE0 + f, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
         set_uniform(p, "lod_min", 0.0)
@@ -353,9 +408,10 @@ class VoxelScene:
         p.run(g, g, g)
         self.ctx.memory_barrier()
 
-    def build_mips(self, normals: bool = True) -> None:
-        """The six faces' anisotropic mips, the column texture's and (`normals`) the face normals'. The normals'
-        depend on the geometry only (their level 0 and the faces' opacities), so a bounce pass leaves them."""
+    def build_mips(self, normals: bool = True, gloss: bool = False) -> None:
+        """The six faces' anisotropic mips, the column texture's, (`normals`) the face normals' and (`gloss`) the
+        gloss textures'. The normals depend on the geometry only (their level 0 and the faces' opacities), the
+        gloss on the opacities and the direct pass, so a bounce pass leaves both."""
         self.build_column_mips()
         p = self.mip_prog
         R = self.resolution
@@ -372,6 +428,25 @@ class VoxelScene:
             self.ctx.memory_barrier()
         if normals:
             self.build_normal_mips()
+        if gloss and self.deferred_glossy:
+            self.build_gloss_mips()
+
+    def build_gloss_mips(self) -> None:
+        """The gloss textures' mips (vct_mip.comp's VCT_MIP_GLOSS), composited with the faces' opacities."""
+        p = self.gloss_mip_prog
+        for level in range(1, self.mip_levels):
+            r = self.resolution >> level
+            p["dst_size"] = (r, r, r * self.count)
+            for f, tex in enumerate(self.gloss):
+                tex.bind_to_image(0, read=True, write=False, level=level - 1)
+                tex.bind_to_image(1, read=False, write=True, level=level)
+                self.gloss[f ^ 1].bind_to_image(2, read=True, write=False, level=level - 1)
+                self.faces[f].bind_to_image(3, read=True, write=False, level=level - 1)
+                self.faces[f ^ 1].bind_to_image(4, read=True, write=False, level=level - 1)
+                p["axis"] = f // 2
+                p["sign_"] = 1 if f % 2 == 0 else -1
+                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            self.ctx.memory_barrier()
 
     def build_normal_mips(self) -> None:
         """The face normals' mips (vct_normal_mip.comp), weighted by the faces' opacities: after theirs."""
@@ -411,6 +486,12 @@ class VoxelScene:
             set_uniform(prog, f"vct_normal_{FACE_NAMES[f]}", NORMAL_UNIT0 + f)
         self.columns.use(COLUMN_UNIT)
         set_uniform(prog, "vct_columns", COLUMN_UNIT)
+        if self.deferred_glossy:
+            for f, tex in enumerate(self.gloss):
+                tex.use(GLOSS_UNIT0 + f)
+                set_uniform(prog, f"vct_gloss_{FACE_NAMES[f]}", GLOSS_UNIT0 + f)
+            self.env_filter.bind_lookup(prog, ENV_UNIT, cube_uniform="vct_env_cube")
+            set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
         g = self.grid
         set_uniform(prog, "vct_centre", g.centre)
         set_uniform(prog, "vct_half_extent", g.half_extent)
@@ -445,6 +526,13 @@ class VoxelScene:
     def read_faces(self, level: int = 0) -> np.ndarray:
         """(6, C, R_L, R_L, R_L, 4) float32 indexed [face, cascade, x, y, z, rgba] of one mip level."""
         return self._read_textures(self.faces, level)
+
+    def read_gloss(self, level: int = 0) -> np.ndarray:
+        """The deferred glossy read's gloss textures, as read_faces: rgb the lobe's weight F ks V_g, a its mean times
+        the exponent, both premultiplied by the coverage."""
+        if not self.deferred_glossy:
+            raise ValueError("this voxel scene stores no gloss textures (deferred_glossy is off)")
+        return self._read_textures(self.gloss, level)
 
     def read_columns(self, level: int = 0) -> np.ndarray:
         """(C, R_L, R_L, R_L, 3) float32 indexed [cascade, x, y, z, axis]: the column texture at one mip level."""
@@ -499,7 +587,8 @@ class VoxelScene:
         floors the levels the cones read, `rgb_lod_min` those of their radiance alone (a bounce pass's view:
         INJECT_LOD_MIN)."""
         if self.probe_prog is None:
-            self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp", package=__package__))
+            self.probe_prog = self.ctx.compute_shader(shader_source("vct_probe.comp", self.trace_defines,
+                                                                      package=__package__))
         p = self.probe_prog
         n = len(points)
         data = np.zeros((n, 2, 4), "f4")
@@ -514,7 +603,8 @@ class VoxelScene:
         gathered, occlusion) of the cones from `origins` along `directions` with tan(half-angle) `tan_half`,
         first sample at `t0`, leaving the surface through `surfaces` with `normals`."""
         if self.cone_prog is None:
-            self.cone_prog = self.ctx.compute_shader(shader_source("vct_cone.comp", package=__package__))
+            self.cone_prog = self.ctx.compute_shader(shader_source("vct_cone.comp", self.trace_defines,
+                                                                     package=__package__))
         p = self.cone_prog
         n = len(origins)
         data = np.zeros((n, 4, 4), "f4")
@@ -547,14 +637,16 @@ class VoxelScene:
 
     def meta(self) -> dict:
         g = self.grid
-        per = g.bytes_per_cascade(BYTES_PER_VOXEL)
+        per_voxel = BYTES_PER_VOXEL + (GLOSS_BYTES_PER_VOXEL if self.deferred_glossy else 0)
+        per = g.bytes_per_cascade(per_voxel)
         return {"vct": {"resolution": g.resolution, "cascades": g.count, "diffuse_cones": len(self.cones.weights),
                         "cone_aperture_deg": 2.0 * math.degrees(self.cones.half_angle), "step": self.step,
                         "normal_offset_voxels": NORMAL_OFFSET_VOXELS, "start_offset_voxels": START_OFFSET_VOXELS,
                         "centre": list(g.centre), "finest_half_extent": g.half_extent,
                         "outer_half_extent": g.half_extent_of(g.count - 1), "voxel_size": g.voxel_size,
-                        "bytes_per_voxel": BYTES_PER_VOXEL, "bytes_per_cascade": [per] * g.count,
-                        "bytes": per * g.count, "single_texture_bytes": g.single_texture_bytes(BYTES_PER_VOXEL),
+                        "bytes_per_voxel": per_voxel, "bytes_per_cascade": [per] * g.count,
+                        "bytes": per * g.count, "single_texture_bytes": g.single_texture_bytes(per_voxel),
+                        "glossy_read": "deferred" if self.deferred_glossy else "six faces",
                         "single_texture_resolution": g.resolution << (g.count - 1),
                         "scratch_bytes": sum(b.size for pair in self.scratch for b in pair),
                         "triangles": self.triangle_count,
@@ -562,8 +654,9 @@ class VoxelScene:
 
     def release(self) -> None:
         scratch = [b for pair in self.scratch for b in pair]
-        for r in [self.triangles, *scratch, *self.faces, *self.normals, self.columns, self.voxelize_prog,
-                  self.normals_prog, self.inject_prog, self.mip_prog, self.normal_mip_prog, self.column_mip_prog,
+        for r in [self.triangles, *scratch, *self.faces, *self.normals, *self.gloss, self.columns,
+                  self.voxelize_prog, self.normals_prog, self.inject_prog, self.bounce_prog, self.mip_prog,
+                  self.gloss_mip_prog, self.normal_mip_prog, self.column_mip_prog,
                   self.probe_prog, self.cone_prog]:
             if r is not None:
                 r.release()
@@ -614,6 +707,10 @@ class _VctEffect(Technique):
     def bind(self, prog: moderngl.Program) -> None:
         self.voxels.bind_trace(prog)
 
+    def trace_defines(self) -> tuple[str, ...]:
+        """The voxel scene's own defines for the cones the shading pass traces (the deferred glossy read)."""
+        return self.voxels.trace_defines if self.voxels is not None else ()
+
     def bind_object(self, prog: moderngl.Program, obj) -> None:
         set_uniform(prog, "vct_glossy_tan", math.tan(vct_math.glossy_half_angle(float(obj.material.exponent))))
         set_uniform(prog, "vct_glossy_exponent", float(obj.material.exponent))
@@ -631,11 +728,11 @@ class VctOcclusion(_VctEffect):
     """`occlusion = "vct"`: the environment's diffuse and glossy light times the cones' visibility."""
 
     def defines(self) -> tuple[str, ...]:
-        return ("VCT_OCCLUSION",)
+        return ("VCT_OCCLUSION", *self.trace_defines())
 
 
 class VctInterreflection(_VctEffect):
     """`interreflection = "vct"`: plus the one-bounce radiance the same cones gather from the voxels."""
 
     def defines(self) -> tuple[str, ...]:
-        return ("VCT_INTERREFLECTION",)
+        return ("VCT_INTERREFLECTION", *self.trace_defines())

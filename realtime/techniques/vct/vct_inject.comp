@@ -22,6 +22,10 @@
 //   from every direction with d_y != 0 (its whole exitance pi L over its front hemisphere), and no side
 //   face carries one side of a thin wall's light to the other;
 // - a face looking at a surface's back (the opposite face is faced): black, opaque by its coverage.
+// VCT_DEFERRED_GLOSSY (a scene with glossy surfaces and the frame's environment store, vct.py): a face's
+// radiance leaves out the glossy term's L_g(r) V_g, whose environment part depends on the direction the face
+// is read from, not on the face's axis; its gloss texel holds F ks V_g and the exponent instead, and a cone
+// reading the face evaluates H L_g toward itself (vct_trace.glsl's vct_gloss_radiance).
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 #include "vct_voxel_sums.glsl"
 layout(std430, binding = 2) readonly buffer SH { mat4 M[3]; vec4 coeffs[9]; };
@@ -32,6 +36,15 @@ layout(rgba16f, binding = 3) uniform writeonly image3D out_ny;
 layout(rgba16f, binding = 4) uniform writeonly image3D out_pz;
 layout(rgba16f, binding = 5) uniform writeonly image3D out_nz;
 layout(rgba16f, binding = 6) uniform writeonly image3D out_columns;  // written by the OCCUPANCY pass only
+#ifdef VCT_DEFERRED_GLOSSY
+// the six faces' gloss texels (vct_trace.glsl's VCT_GLOSS_READ), written by the coverage and direct passes
+layout(rgba16f, binding = 7) uniform writeonly image3D gloss_px;
+layout(rgba16f, binding = 8) uniform writeonly image3D gloss_nx;
+layout(rgba16f, binding = 9) uniform writeonly image3D gloss_py;
+layout(rgba16f, binding = 10) uniform writeonly image3D gloss_ny;
+layout(rgba16f, binding = 11) uniform writeonly image3D gloss_pz;
+layout(rgba16f, binding = 12) uniform writeonly image3D gloss_nz;
+#endif
 uniform int cascade;
 uniform int inject;     // 0: coverage only; 1: direct radiance; 2: direct + gathered bounce
 uniform float lod_min;  // the visibility cones' finest mip
@@ -51,36 +64,31 @@ void put(int f, ivec3 q, vec4 value) {
     else imageStore(out_nz, q, value);
 }
 
+#ifdef VCT_DEFERRED_GLOSSY
+void put_gloss(int f, ivec3 q, vec4 value) {
+    if (f == 0) imageStore(gloss_px, q, value);
+    else if (f == 1) imageStore(gloss_nx, q, value);
+    else if (f == 2) imageStore(gloss_py, q, value);
+    else if (f == 3) imageStore(gloss_ny, q, value);
+    else if (f == 4) imageStore(gloss_pz, q, value);
+    else imageStore(gloss_nz, q, value);
+}
+#endif
+
 const float PI = 3.14159265358979323846;
 
 // L_g(r): the environment convolved with the normalised Phong lobe of exponent N about r.
-// VCT_GLOSSY_ENV (the frame's injection): the environment's 2x2-box mip chain (the cube, or a 2D
-// parameterization through env_map.glsl) read at the level whose texel covers the lobe's solid angle
-// (McGuire et al. 2013, realtime.engine.levels.mcguire_offset): the lobe's normalisation (N + 1) / (2 pi)
-// makes it worth 2 pi / (N + 1) sr, a cube texel at level l covers about 4 pi / (6 (base / 2^l)^2), so
-// l = log2(base sqrt(3)) - 0.5 log2(N + 1). SH9 cannot stand in for a narrow lobe: its order-2 projection
-// spreads a bright window over the whole sphere (a Phong torus (N = 50) under the Ennis probe, its second
-// bounce traced in numpy: twice the radiance of the same bounce under the environment itself).
+// VCT_GLOSSY_ENV (the frame's injection): the environment's 2x2-box mip chain at the lobe's level
+// (vct_glossy_env.glsl). SH9 cannot stand in for a narrow lobe: its order-2 projection spreads a bright window
+// over the whole sphere (a Phong torus (N = 50) under the Ennis probe, its second bounce traced in numpy: twice
+// the radiance of the same bounce under the environment itself).
 // Otherwise (a voxel scene made without the frame's environment store: tests) the SH9 radiance convolved
 // with the lobe, band factors Lambda_l = (N + 1) int_0^1 t^N P_l(t) dt: 1, (N + 1) / (N + 2), N / (N + 3)
 // (scenes/environment/shbasis.py's basis and order).
 #ifdef VCT_GLOSSY_ENV
-uniform float env_base_size;  // the cube's level-0 face size (a 2D store's cube-equivalent budget)
-#if defined(ENV_DUAL_PARABOLOID) || defined(ENV_SPHERE_MAP)
-#include "env_map.glsl"
-// the host's LOD unclamped: env_map.glsl turns it into its own level of equal solid angle and clamps that
-vec3 env_lookup(vec3 r, float lod) {
-    return env_map_radiance(r, lod);
-}
-#else
-uniform samplerCube env_cube;
-vec3 env_lookup(vec3 r, float lod) {
-    return textureLod(env_cube, r, clamp(lod, 0.0, log2(env_base_size))).rgb;
-}
-#endif
-
+#include "vct_glossy_env.glsl"
 vec3 glossy_env(vec3 r, float N) {
-    return max(env_lookup(r, log2(env_base_size * sqrt(3.0)) - 0.5 * log2(N + 1.0)), vec3(0.0));
+    return vct_glossy_env(r, N);
 }
 #else
 vec3 glossy_env(vec3 r, float N) {
@@ -115,10 +123,11 @@ float glossy_tan(float N) {
 // is the wrong share for the lobe: where r points at a nearby surface (a torus's inner wall looking
 // across the hole) the hemisphere is about half open, and V_d passed half of L_g(r) that the surface
 // cannot reflect.
-vec3 glossy_lobe(vec3 x, vec3 n, vec3 r, float N) {
+// Returns (L_b, V_g).
+vec4 glossy_lobe(vec3 x, vec3 n, vec3 r, float N) {
     float h = vct_local_voxel(x);
     vec4 s = vct_cone(x + vct_normal_voxels * h * n, r, glossy_tan(N), vct_start_voxels * h, lod_min, x, n);
-    return glossy_env(r, N) * (1.0 - s.a) + (inject == 2 ? s.rgb : vec3(0.0));
+    return vec4(inject == 2 ? s.rgb : vec3(0.0), 1.0 - s.a);
 }
 
 // The voxel's opacity along each axis: the fraction of the voxel's cross-section its surface covers seen
@@ -151,6 +160,10 @@ void main() {
     if (count == 0 || inject == 0) {
         for (int f = 0; f < 6; ++f) put(f, q, vec4(0.0, 0.0, 0.0, count > 0 ? cover[f / 2] : 0.0));
         if (inject == 0) imageStore(out_columns, q, vec4(count > 0 ? cover : vec3(0.0), 0.0));
+#ifdef VCT_DEFERRED_GLOSSY
+        if (inject <= 1)
+            for (int f = 0; f < 6; ++f) put_gloss(f, q, vec4(0.0));
+#endif
         return;
     }
     float cnt = float(count);
@@ -173,12 +186,14 @@ void main() {
     vec4 done_E[6];  // (environment irradiance x V_d + bounce, V_d)
     int done = 0;
     vec3 L[6];
+    vec3 G[6];  // VCT_DEFERRED_GLOSSY: the glossy lobe's weight F ks V_g toward each face
     bool faced[6];
     for (int f = 0; f < 6; ++f) {
         int o = FACE_INTS0 + 4 * f;
         vec3 ns = vec3(voxel_sum(v, o + 1), voxel_sum(v, o + 2), voxel_sum(v, o + 3));
         faced[f] = voxel_sum(v, o) > 0 && length(ns) > 0.0;
         L[f] = vec3(0.0);
+        G[f] = vec3(0.0);
         if (!faced[f]) continue;
         vec3 n = normalize(ns);
         vec3 a = vec3(0.0);
@@ -198,10 +213,26 @@ void main() {
             }
             L[f] += (1.0 - F) * kd / PI * done_E[k].rgb;
         }
-        if (glossy) L[f] += F * ks * vct_lobe_above(c, N) * glossy_lobe(x, n, reflect(-a, n), N);
+        if (glossy) {
+            vec3 r = reflect(-a, n);
+            vec4 lobe = glossy_lobe(x, n, r, N);
+#ifdef VCT_DEFERRED_GLOSSY
+            // the environment's part is left to the read, toward the cone that reads the face (vct_trace.glsl's
+            // vct_gloss_radiance): the face keeps the gathered bounce, its gloss texel the lobe's weight
+            L[f] += F * ks * vct_lobe_above(c, N) * lobe.rgb;
+            G[f] = F * ks * lobe.a;
+#else
+            L[f] += F * ks * vct_lobe_above(c, N) * (glossy_env(r, N) * lobe.a + lobe.rgb);
+#endif
+        }
     }
     for (int f = 0; f < 6; ++f) {
         // premultiplied: the radiance of what covers the face's axis, times that coverage (and the radiance scale)
         put(f, q, cover[f / 2] * vec4(L[f] * vct_radiance_scale, 1.0));
+#ifdef VCT_DEFERRED_GLOSSY
+        // the lobe's weight F ks V_g and its exponent (weighted by the weight's mean, so that the mips' means
+        // divide back to a weighted mean exponent), premultiplied as the radiance is; the bounce passes leave it
+        if (inject == 1) put_gloss(f, q, cover[f / 2] * vec4(G[f], N * (G[f].r + G[f].g + G[f].b) / 3.0));
+#endif
     }
 }

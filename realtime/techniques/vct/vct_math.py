@@ -119,6 +119,10 @@ def glossy_half_angle(exponent: float) -> float:
 HORIZON_SAMPLES = 32
 
 
+#: the largest share of the Phong lobe beyond the horizon taken as none (lobe_above_horizon)
+HORIZON_EXACT_TAIL = 1e-4
+
+
 def lobe_above_horizon(cos_r: float, exponent: float, samples: int = HORIZON_SAMPLES) -> float:
     """The share of the normalised Phong lobe (N + 1) / (2 pi) (r . l)^N about r that lies above the surface
     (n . l > 0), for n . r = cos_r; vct_trace.glsl's vct_lobe_above mirrors it.
@@ -129,8 +133,15 @@ def lobe_above_horizon(cos_r: float, exponent: float, samples: int = HORIZON_SAM
     (phi = 0 toward n), n . l = s cos(alpha) + c sin(alpha) cos(phi), s = n . r, c = sqrt(1 - s^2): above
     where cos(phi) > t = -s cos(alpha) / (c sin(alpha)), a share g = acos(clamp(t, -1, 1)) / pi of the
     azimuths. The lobe's polar CDF is cos(alpha) = xi^(1 / (N + 1)) (uniform xi, the BSDF's own sampling), so
-    the share is the mean of g over xi, taken at `samples` midpoints."""
+    the share is the mean of g over xi, taken at `samples` midpoints.
+
+    Far from the horizon the share is 1 (or 0) to within HORIZON_EXACT_TAIL, without the sum: every direction
+    below the horizon is at least asin(|s|) from r, and the lobe's mass beyond an angle theta from r is
+    cos(theta)^(N + 1) (the same CDF), so 1 - share <= (1 - s^2)^((N + 1) / 2) for s > 0 (share itself for
+    s < 0). Most reads of a glossy surface lie there, which the deferred glossy read, six per sample, needs."""
     s = float(np.clip(cos_r, -1.0, 1.0))
+    if (1.0 - s * s) ** (0.5 * (float(exponent) + 1.0)) < HORIZON_EXACT_TAIL:
+        return 1.0 if s > 0.0 else 0.0
     c = math.sqrt(max(0.0, 1.0 - s * s))
     xi = (np.arange(samples) + 0.5) / samples
     cos_a = xi ** (1.0 / (float(exponent) + 1.0))

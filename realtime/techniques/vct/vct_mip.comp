@@ -18,10 +18,22 @@
 // read's share for faces lit both ways, vct_trace.glsl's vct_front; without either, 0.90 / 0.80 / 0.57).
 // Where every pair is a back (a thin wall's dark side) the radiance stays 0, as before; a surface dark on
 // both sides (black pairs both ways) counts as a front, black and opaque.
+// VCT_MIP_GLOSS: one face's gloss texels (the glossy lobe's weight and weighted exponent, premultiplied by the
+// coverage: vct_inject.comp) mipped by the same rule, all four channels as the radiance, with the face's own
+// opacities (and the opposite face's) for the compositing and the backs told by the weight.
 layout(local_size_x = 4, local_size_y = 4, local_size_z = 4) in;
 layout(rgba16f, binding = 0) uniform readonly image3D src;
 layout(rgba16f, binding = 1) uniform writeonly image3D dst;
 layout(rgba16f, binding = 2) uniform readonly image3D opposite;  // the opposite face, the level of src
+#ifdef VCT_MIP_GLOSS
+layout(rgba16f, binding = 3) uniform readonly image3D opacity;           // the face's opacities, src's level
+layout(rgba16f, binding = 4) uniform readonly image3D opposite_opacity;  // the opposite face's
+float alpha_at(ivec3 p) { return imageLoad(opacity, p).a; }
+float opposite_alpha_at(ivec3 p) { return imageLoad(opposite_opacity, p).a; }
+#else
+float alpha_at(ivec3 p) { return imageLoad(src, p).a; }
+float opposite_alpha_at(ivec3 p) { return imageLoad(opposite, p).a; }
+#endif
 uniform ivec3 dst_size;
 uniform int axis;   // 0, 1, 2
 uniform int sign_;  // +1 or -1
@@ -42,26 +54,28 @@ void main() {
     u[(axis + 1) % 3] = 1;
     w[(axis + 2) % 3] = 1;
     vec4 sum = vec4(0.0);
-    float front_alpha = 0.0;
+    float alpha = 0.0, front_alpha = 0.0;
     for (int i = 0; i < 2; ++i)
         for (int j = 0; j < 2; ++j) {
             ivec3 p = s + i * u + j * w;
-            vec4 lo = imageLoad(src, p), hi = imageLoad(src, p + e);
-            vec4 front = sign_ > 0 ? hi : lo;
-            vec4 back = sign_ > 0 ? lo : hi;
-            vec4 pair = front + (1.0 - front.a) * back;
+            ivec3 near = sign_ > 0 ? p + e : p, far = sign_ > 0 ? p : p + e;
+            float a_front = alpha_at(near);
+            vec4 pair = imageLoad(src, near) + (1.0 - a_front) * imageLoad(src, far);
+            float pair_alpha = a_front + (1.0 - a_front) * alpha_at(far);
             // the opposite face's pair: its front is this pair's back child
-            vec4 olo = imageLoad(opposite, p), ohi = imageLoad(opposite, p + e);
-            vec4 ofront = sign_ > 0 ? olo : ohi;
-            vec4 oback = sign_ > 0 ? ohi : olo;
-            vec3 orgb = ofront.rgb + (1.0 - ofront.a) * oback.rgb;
+            vec3 orgb = imageLoad(opposite, far).rgb + (1.0 - opposite_alpha_at(far)) * imageLoad(opposite, near).rgb;
             float b = brightest(orgb);
             bool is_back = b > 0.0 && brightest(pair.rgb) <= MIP_BACK_RATIO * b;
-            front_alpha += is_back ? 0.0 : pair.a;
+            front_alpha += is_back ? 0.0 : pair_alpha;
+            alpha += pair_alpha;
             sum += pair;
         }
     vec4 out_ = 0.25 * sum;
     // the lit pairs' radiance per opacity, over the whole texel's opacity (unchanged where no pair is a back)
+#ifdef VCT_MIP_GLOSS
+    if (front_alpha > 1e-6) out_ = sum * (0.25 * alpha / front_alpha);
+#else
     if (front_alpha > 1e-6) out_.rgb = sum.rgb * (out_.a / front_alpha);
+#endif
     imageStore(dst, g, out_);
 }

@@ -52,9 +52,13 @@ uniform float vct_rgb_lod_min;
 // (vct_math.lobe_above_horizon mirrors it, with its derivation): the reference's Phong BSDF gives the lobe's
 // directions below the horizon weight 0. The mean over the lobe's polar CDF cos(alpha) = xi^(1 / (N + 1))
 // at VCT_HORIZON_SAMPLES midpoints of the azimuth share acos(clamp(-s cos(alpha) / (c sin(alpha)))) / pi.
+// Far from the horizon, 1 or 0 without the sum: the lobe's share beyond the horizon is at most
+// (1 - s^2)^((N + 1) / 2) (vct_math.HORIZON_EXACT_TAIL, the same rule).
 #define VCT_HORIZON_SAMPLES 32
+#define VCT_HORIZON_EXACT_TAIL 1e-4
 float vct_lobe_above(float cos_r, float N) {
     float s = clamp(cos_r, -1.0, 1.0);
+    if (pow(max(1.0 - s * s, 0.0), 0.5 * (N + 1.0)) < VCT_HORIZON_EXACT_TAIL) return s > 0.0 ? 1.0 : 0.0;
     float c = sqrt(max(0.0, 1.0 - s * s));
     float sum = 0.0;
     for (int k = 0; k < VCT_HORIZON_SAMPLES; ++k) {
@@ -65,6 +69,39 @@ float vct_lobe_above(float cos_r, float N) {
     }
     return sum / (3.14159265358979323846 * float(VCT_HORIZON_SAMPLES));
 }
+
+#ifdef VCT_GLOSS_READ
+#include "vct_glossy_env.glsl"
+// Per face, the glossy lobe's weight F ks V_g (rgb) and mean(F ks V_g) N (a), premultiplied by the coverage and
+// mipped as the faces' radiance is (vct_inject.comp, vct_mip.comp's VCT_MIP_GLOSS)
+uniform sampler3D vct_gloss_px;
+uniform sampler3D vct_gloss_nx;
+uniform sampler3D vct_gloss_py;
+uniform sampler3D vct_gloss_ny;
+uniform sampler3D vct_gloss_pz;
+uniform sampler3D vct_gloss_nz;
+// the largest exponent the voxels sum (vct.py's MAX_EXPONENT)
+#define VCT_MAX_EXPONENT 4096.0
+
+// The glossy radiance a face's surfaces send toward v (unit, from the surface toward the viewer), premultiplied
+// as the face's radiance is: g the face's gloss texel, m its stored normal. Six faces that each store the
+// radiance toward their own axis hand a cone along -v the blend of six directions' reflections: around a
+// Phong torus (N = 50) that put 39 % on its one bounce in a numpy model exact in all else
+// (benchmarks/vct_glossy_storage.py), 24 points of it the environment's radiance taken along the faces'
+// directions instead of the cone's, 15 the sender's visibility, which the faces still blend (V_g per face).
+// Evaluated here, the environment's part is the sender's own lobe about the mirror of v in m,
+// F ks V_g H(m . v, N) L_g(reflect(-v, m), N): the paper's glossy term toward v with the face's visibility.
+// In the mips m is the faces' opacity-weighted mean normal and N the weight-weighted mean exponent.
+vec3 vct_gloss_radiance(vec4 g, vec3 m, vec3 v) {
+    float weight = (g.r + g.g + g.b) / 3.0;
+    if (weight <= 0.0 || dot(m, m) <= VCT_NORMAL_EPS * VCT_NORMAL_EPS) return vec3(0.0);
+    vec3 n = normalize(m);
+    float c = dot(n, v);
+    if (c <= 0.0) return vec3(0.0);  // the surfaces face away from the viewer
+    float N = clamp(g.a / weight, 0.0, VCT_MAX_EXPONENT);
+    return g.rgb * (vct_lobe_above(c, N) * vct_radiance_scale) * vct_glossy_env(reflect(-v, n), N);
+}
+#endif
 
 // the finest cascade holding p, half a voxel inside its box (-1: outside every cascade)
 int vct_cascade_of(vec3 p) {
@@ -235,6 +272,16 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 qx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x > 0.0, local, c, mip);
     vec3 qy = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y > 0.0, local, c, mip);
     vec3 qz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z > 0.0, local, c, mip);
+#ifdef VCT_GLOSS_READ
+    // the glossy light the faces' surfaces send toward the cone (the faces against d, toward -d) and the other
+    // way (the faces along d, toward d), evaluated for this direction (vct_gloss_radiance)
+    x.rgb += vct_gloss_radiance(d.x > 0.0 ? vct_fetch(vct_gloss_nx, local, c, mip) : vct_fetch(vct_gloss_px, local, c, mip), mx, -d);
+    y.rgb += vct_gloss_radiance(d.y > 0.0 ? vct_fetch(vct_gloss_ny, local, c, mip) : vct_fetch(vct_gloss_py, local, c, mip), my, -d);
+    z.rgb += vct_gloss_radiance(d.z > 0.0 ? vct_fetch(vct_gloss_nz, local, c, mip) : vct_fetch(vct_gloss_pz, local, c, mip), mz, -d);
+    ox += vct_gloss_radiance(d.x > 0.0 ? vct_fetch(vct_gloss_px, local, c, mip) : vct_fetch(vct_gloss_nx, local, c, mip), qx, d);
+    oy += vct_gloss_radiance(d.y > 0.0 ? vct_fetch(vct_gloss_py, local, c, mip) : vct_fetch(vct_gloss_ny, local, c, mip), qy, d);
+    oz += vct_gloss_radiance(d.z > 0.0 ? vct_fetch(vct_gloss_pz, local, c, mip) : vct_fetch(vct_gloss_nz, local, c, mip), qz, d);
+#endif
     // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
     // the dominant face's rho: the one of the largest weighted opacity w_a alpha_a
