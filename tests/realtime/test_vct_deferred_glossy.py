@@ -2,23 +2,35 @@
 surface reflects toward the cone, the environment taken about the mirror of the cone's own direction, not about
 the directions of the six faces the voxels store.
 
-A horizontal Phong plane (ks 0.8, N 50) alone under an environment whose radiance is linear in the direction,
-L(w) = 1 + w_x. The normalised Phong lobe P about r has the first moment int P(l) l dl = k r, k = (N + 1) / (N + 2)
-(its mean of r . l; the parts across r cancel), so it averages L to L_g(r) = 1 + k r_x. A narrow cone looking down
-at the plane along d, 40 degrees off the vertical toward +x and toward -x, sees r = reflect(d, +y) 40 degrees from
-the zenith, the lobe wholly above the horizon (its share below is under 1e-9 for N = 50), so it gathers
-ks (1 + k r_x) with r_x = -sin 40 and +sin 40. The two readings give the constant term (their mean, ks) and k
-(their half difference over ks sin 40).
+A horizontal Phong plane (ks 0.8) alone under an environment whose radiance is linear in the direction,
+L(w) = 1 + e . w (e the world direction of the map's +x: the map's +x column ramp, turned with the map). The
+normalised Phong lobe P of exponent N about r has the first moment int P(l) l dl = k r, k = (N + 1) / (N + 2) (its
+mean of r . l; the parts across r cancel), so it averages L to L_g(r) = 1 + k e . r. A cone looking down at the
+plane along d, 40 degrees off the vertical toward +e and toward -e, sees r = reflect(d, +y) 40 degrees from the
+zenith, the lobe wholly above the horizon (its share below is under 1e-9 for N = 50), so it gathers
+ks (1 + k e . r) with e . r = +-sin 40 |e_h|. The two readings give the constant term (their mean, ks) and k.
 
-The store's chain stands in for the lobe with a box of texels of the lobe's solid angle a^2 = 2 pi / (N + 1), read
-trilinearly: per axis the box's variance a^2 / 12 and the interpolation's tent's a^2 / 6 add a^2 / 2 of angular
-variance, which shrinks the first moment by about 1 - a^2 / 4: k about 0.981 x 0.969 = 0.951. So k lies between
-that estimate and the exact lobe's 0.981 (measured 0.956 on the cube, 0.969 on the dual paraboloid, 0.972 on the
-sphere map), for each of the environment store's parameterizations, which the read looks up through its own
-uniforms; the constant term within 1 % of ks.
+The store's chain stands in for the lobe with a box of texels at the level whose mean texel solid angle is the
+lobe's 2 pi / (N + 1) (McGuire et al.). A cube texel at a face's centre is 6 / pi times the mean, so a texel's
+angular width a has a^2 <= 12 / (N + 1); read trilinearly, the box's variance a^2 / 12 and the interpolation's
+tent's a^2 / 6 per axis add a^2 / 2 of angular variance, which shrinks the first moment by a^2 / 4 (to first
+order; the mip-linear blend with the next level blurs a little more). So k is about 1 - 3 / (N + 1) at the least
+and at most 1: the band [1 - 3 / (N + 1) - 0.005, 1.005] (0.936 for N = 50, 0.989 for N = 500; the exact lobe's
+0.981 and 0.998 inside; measured 0.956 / 0.969 / 0.972 on the cube / dual paraboloid / sphere map for N = 50,
+0.993 / 0.995 / 0.997 for N = 500). So N = 500 tells a lost or wrong exponent from the right one (N = 50's k is
+outside its band), which N = 50's band alone would not. Checked for each
+of the environment store's parameterizations (the read looks the store up through its own uniforms), with the map
+turned 37 degrees (a swapped, negated or doubly applied turn reads another direction), and with a cone wide enough
+to read the gloss texture's mips 3-4.
 
-Control: the six-face storage (`deferred_glossy=False`) stores in the +Y face the radiance toward +y,
-ks L_g(+y) = ks, and reads it whichever way the cone looks: k = 0, outside the band.
+Under a constant environment a cone 80 degrees off the vertical sees r graze the plane (n . r = cos 80): the read
+scales the lobe by its share above the horizon, vct_math.lobe_above_horizon (0.893 for N = 50, itself checked
+against sampling the lobe), where the whole lobe would give 1.
+
+The gloss texture's mips keep the exponent: alpha over the weight's mean is N at every level.
+
+Controls: the six-face storage (`deferred_glossy=False`) stores in the +Y face the radiance toward +y,
+ks L_g(+y) = ks, and reads it whichever way the cone looks: k = 0, and 1 at the grazing cone.
 """
 
 from __future__ import annotations
@@ -39,66 +51,123 @@ from scenes.environment import directions, envmap
 
 pytestmark = pytest.mark.gl
 
-KS, N_EXP = 0.8, 50.0
+KS = 0.8
 TILT_DEG = 40.0
-#: the cone's half-angle: narrow, so that it meets the plane within a few voxels of its axis
-TAN_HALF = math.tan(math.radians(5.0))
+GRAZING_DEG = 80.0
+#: narrow: the cone meets the plane within a few voxels of its axis, reading levels 0-1
+NARROW = (math.tan(math.radians(5.0)), 0.6)
+#: wide, from higher up: the cone's diameter at the plane is about 10 voxels (levels 3-4)
+WIDE = (math.tan(math.radians(25.0)), 1.2)
+GRID = vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1)
 
 
 @pytest.fixture(scope="module")
 def linear_sky(tmp_path_factory) -> str:
-    """An environment map of radiance 1 + w_x in every channel (w the pixel's direction)."""
+    """An environment map of radiance 1 + w_x in every channel (w the pixel's direction in the map's frame)."""
     d = directions.equirect_directions(128, 256)
     path = tmp_path_factory.mktemp("env") / "linear_x.exr"
     envmap.write(path, np.repeat(1.0 + d[..., :1], 3, axis=-1).astype(np.float32))
     return str(path)
 
 
-def gathered(linear_sky: str, parameterization: str, deferred: bool) -> np.ndarray:
-    """Radiance (2,) the narrow cone gathers from the plane looking down 40 degrees off the vertical, toward -x
-    (its mirror direction toward +x) and toward +x, the grey mean of rgb."""
+def voxels(overrides: dict, exponent: float, deferred: bool):
+    """The Phong plane (ks 0.8, `exponent`) under the scene's environment with `overrides`, 32^3, one cascade;
+    (VoxelScene, its environment store, the map's world +x direction e from the reference's own lookup)."""
     ctx = get_context()
-    scene = scenes.load("builtin:sphere-on-plane").with_overrides({
-        "environment.map": linear_sky, "realtime.parameterization": parameterization})
+    scene = scenes.load("builtin:sphere-on-plane").with_overrides(overrides)
     env = environment_store(ctx, scene)
     env.fill_base(scene.environment.rotation_deg)
     env.build_chain(None)
     env.project_sh(64)
     phong = dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, ks=(KS,) * 3,
-                                exponent=N_EXP)
+                                exponent=exponent)
     plane = SimpleNamespace(mesh=scene.objects[1].mesh, material=phong)
-    grid = vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1)
-    vs = VoxelScene(ctx, [plane], 32, 1, 6, 0.5, grid=grid, env_filter=env, deferred_glossy=deferred)
+    vs = VoxelScene(ctx, [plane], 32, 1, 6, 0.5, grid=GRID, env_filter=env, deferred_glossy=deferred)
     vs.update(None, env.sh_buffer)
-    s, c = math.sin(math.radians(TILT_DEG)), math.cos(math.radians(TILT_DEG))
-    dirs = np.array([[s, -c, 0.0], [-s, -c, 0.0]])  # r = (s, c, 0) and (-s, c, 0)
-    origins = -0.6 / c * dirs  # 0.6 above the plane's point at the origin
-    out = vs.trace_cone(origins, dirs, np.full(2, TAN_HALF), np.zeros(2), origins, dirs)
     assert vs.meta()["vct"]["glossy_read"] == ("deferred" if deferred else "six faces")
-    vs.release()
-    env.release()
+    radiance = np.asarray(scene.environment.radiance(), np.float64)
+    axes = np.eye(3)
+    e = (envmap.lookup(radiance, axes, scene.environment.rotation_deg)
+         - envmap.lookup(radiance, -axes, scene.environment.rotation_deg))[:, 0] / 2.0
+    return vs, env, e
+
+
+def cone_reads(vs, dirs: np.ndarray, cone: tuple[float, float]) -> np.ndarray:
+    """Grey radiance per unit opacity the cones along `dirs` gather from the plane, each from `cone`'s height
+    above the plane's point at the origin."""
+    tan_half, height = cone
+    origins = height / -dirs[:, 1:2] * -dirs
+    out = vs.trace_cone(origins, dirs, np.full(len(dirs), tan_half), np.zeros(len(dirs)), origins, dirs)
     assert (out[:, 3] > 0.99).all(), out  # the plane fills the cone
     return out[:, :3].mean(axis=1) / out[:, 3]
 
 
-def constant_and_k(got: np.ndarray) -> tuple[float, float]:
-    """The readings ks (1 + k r_x) at r_x = +sin 40 and -sin 40 as (constant term / ks, k)."""
-    return float(got.mean() / KS), float((got[0] - got[1]) / (2.0 * KS * math.sin(math.radians(TILT_DEG))))
+def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: bool,
+                   cone: tuple[float, float]) -> tuple[float, float]:
+    """The readings ks (1 + k e . r) of the cones tilted toward +e_h and -e_h, as (constant term / ks, k)."""
+    vs, env, e = voxels({"environment.map": linear_sky, **overrides}, exponent, deferred)
+    h = np.array([e[0], 0.0, e[2]])
+    s, c = math.sin(math.radians(TILT_DEG)), math.cos(math.radians(TILT_DEG))
+    toward = h / np.linalg.norm(h)
+    dirs = np.array([s * toward - c * np.array([0.0, 1.0, 0.0]), -s * toward - c * np.array([0.0, 1.0, 0.0])])
+    got = cone_reads(vs, dirs, cone)  # mirror directions r = (+-s toward, c)
+    vs.release()
+    env.release()
+    return float(got.mean() / KS), float((got[0] - got[1]) / (2.0 * KS * s * np.linalg.norm(h)))
 
 
-#: k of the exact lobe, and the chain's estimate below it (the module's docstring)
-K_LOBE = (N_EXP + 1.0) / (N_EXP + 2.0)
-K_CHAIN = K_LOBE * (1.0 - 2.0 * math.pi / (N_EXP + 1.0) / 4.0)
+def k_band(exponent: float) -> tuple[float, float]:
+    """[1 - 3 / (N + 1), 1], widened by 0.005 (the module's docstring)."""
+    return 1.0 - 3.0 / (exponent + 1.0) - 0.005, 1.005
 
 
 @pytest.mark.parametrize("parameterization", ["cube", "dual_paraboloid", "sphere_map"])
-def test_a_cone_gathers_the_glossy_reflection_toward_itself(linear_sky, parameterization):
-    constant, k = constant_and_k(gathered(linear_sky, parameterization, True))
+@pytest.mark.parametrize("exponent", [50.0, 500.0])
+def test_a_cone_gathers_the_glossy_reflection_toward_itself(linear_sky, parameterization, exponent):
+    constant, k = constant_and_k(linear_sky, {"realtime.parameterization": parameterization}, exponent, True,
+                                 NARROW)
+    low, high = k_band(exponent)
     assert constant == pytest.approx(1.0, rel=0.01)
-    assert K_CHAIN - 0.01 < k < K_LOBE + 0.005, (k, K_CHAIN, K_LOBE)
+    assert low < k < high, (k, low, high)
+
+
+@pytest.mark.parametrize("cone", [NARROW, WIDE], ids=["narrow", "wide"])
+def test_the_read_looks_up_the_world_direction_of_a_turned_environment(linear_sky, cone):
+    constant, k = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone)
+    low, high = k_band(50.0)
+    assert constant == pytest.approx(1.0, rel=0.01)
+    assert low < k < high, (k, low, high)
 
 
 def test_control_the_six_face_storage_reads_the_stored_direction_both_ways(linear_sky):
-    constant, k = constant_and_k(gathered(linear_sky, "cube", False))
+    constant, k = constant_and_k(linear_sky, {}, 50.0, False, NARROW)
     assert constant == pytest.approx(1.0, rel=0.01)  # ks L_g(+y), stored in the +Y face
     assert abs(k) < 0.05
+
+
+@pytest.mark.parametrize("deferred", [True, False], ids=["deferred", "six-faces-control"])
+def test_a_grazing_read_takes_the_lobes_share_above_the_horizon(deferred):
+    vs, env, _ = voxels({"environment.map": "builtin:constant"}, 50.0, deferred)
+    s, c = math.sin(math.radians(GRAZING_DEG)), math.cos(math.radians(GRAZING_DEG))
+    got = cone_reads(vs, np.array([[s, -c, 0.0], [0.0, -c, -s]]), (NARROW[0], 0.3)) / KS
+    vs.release()
+    env.release()
+    share = vct_math.lobe_above_horizon(c, 50.0)
+    assert share < 0.9  # the lobe grazes: its share is not 1
+    if deferred:
+        assert got == pytest.approx(np.full(2, share), abs=0.02)
+    else:
+        assert got == pytest.approx(np.full(2, 1.0), abs=0.02)  # the +Y face's lobe, wholly above its horizon
+
+
+@pytest.mark.parametrize("exponent", [50.0, 500.0])
+def test_the_gloss_mips_keep_the_exponent(exponent):
+    vs, env, _ = voxels({"environment.map": "builtin:constant"}, exponent, True)
+    levels = [vs.read_gloss(level) for level in (1, 2, 3)]
+    vs.release()
+    env.release()
+    for gloss in levels:
+        weight = gloss[..., :3].mean(axis=-1)
+        held = weight > 1e-3
+        assert held.sum() >= 4
+        np.testing.assert_allclose(gloss[..., 3][held] / weight[held], exponent, rtol=0.01)

@@ -38,11 +38,12 @@ Every frame (timed `voxelize`, its mips as `mip`):
    its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
    re-injects k - 1 times, adding what the cones gather from the previous bounce.
    The deferred glossy read (`deferred_glossy`: a scene with glossy surfaces under the frame's environment
-   store): the faces leave out the glossy term's environment part L_g(r) V_g, and six more RGBA16F gloss
-   textures hold per face the lobe's weight F ks V_g and its exponent (48 bytes a voxel more), mipped as the
-   radiance is; a cone reading a face evaluates the surfaces' lobe toward itself, F ks V_g H L_g(reflect(d, m)),
-   m the face's stored normal (vct_trace.glsl's vct_gloss_radiance), where six stored directions would hand it
-   the blend of six reflections.
+   store, and interreflection on): the faces leave out the glossy term's environment part L_g(r) V_g, and an
+   RGBA16F gloss texture holds per face the lobe's weight F ks V_g and its exponent (the six faces side by side
+   along x: one image unit, where OpenGL drivers may offer 8; 48 bytes a voxel more), mipped as the radiance
+   is; a cone reading a face evaluates the surfaces' lobe toward itself, F ks V_g H L_g(reflect(d, m)), m the
+   face's stored normal (vct_trace.glsl's vct_gloss_radiance), where six stored directions would hand it the
+   blend of six reflections.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
 cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
@@ -117,14 +118,14 @@ ENV_UNIT = COLUMN_UNIT + 1
 COLUMN_IMAGE = 6
 #: texture units of the six face-normal textures (after the environment's chain)
 NORMAL_UNIT0 = ENV_UNIT + 1
-#: texture units of the six gloss textures (the deferred glossy read), and the images the injection writes them
-#: through (after the faces' 0..5 and the column texture's 6)
-GLOSS_UNIT0 = NORMAL_UNIT0 + 6
-GLOSS_IMAGE0 = COLUMN_IMAGE + 1
+#: texture unit of the gloss texture (the deferred glossy read), and the image the injection writes it through
+#: (after the faces' 0..5 and the column texture's 6: the eighth, the most some drivers offer a compute shader)
+GLOSS_UNIT = NORMAL_UNIT0 + 6
+GLOSS_IMAGE = COLUMN_IMAGE + 1
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
 #: six RGBA16F faces, the RGBA16F column texture and six RGBA8 face normals
 BYTES_PER_VOXEL = 7 * 8 + 6 * 4
-#: the deferred glossy read's six RGBA16F gloss textures, on top
+#: the deferred glossy read's RGBA16F gloss texture, six faces a voxel, on top
 GLOSS_BYTES_PER_VOXEL = 6 * 8
 #: per voxel: count, kd rgb, ks rgb, exponent, f0, Schlick flag, then from FACE_INTS0 6 x (weight, weighted normal xyz)
 VOXEL_INTS = 34
@@ -274,13 +275,16 @@ class VoxelScene:
         if deferred_glossy and env_filter is None:
             raise ValueError("the deferred glossy read needs the frame's environment store (env_filter)")
         self.deferred_glossy = bool(deferred_glossy)
-        self.gloss = []
-        for _ in range(6 if self.deferred_glossy else 0):
-            tex = ctx.texture3d(size, 4, dtype="f2")
-            tex.build_mipmaps()  # allocates the chain; vct_mip.comp (VCT_MIP_GLOSS) writes it
-            tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
-            tex.repeat_x = tex.repeat_y = tex.repeat_z = False
-            self.gloss.append(tex)
+        self.gloss = None
+        if self.deferred_glossy:
+            # the six faces side by side along x, face f at x in [f R_L, (f + 1) R_L) of every level L
+            gloss_size = (6 * resolution, resolution, resolution * cascades)
+            limits.check_texture(ctx, "3d", gloss_size, "realtime.vct.resolution and realtime.vct.cascades",
+                                 "the deferred glossy read's gloss texture")
+            self.gloss = ctx.texture3d(gloss_size, 4, dtype="f2")
+            self.gloss.build_mipmaps()  # allocates the chain; vct_mip.comp (VCT_MIP_GLOSS) writes it
+            self.gloss.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
+            self.gloss.repeat_x = self.gloss.repeat_y = self.gloss.repeat_z = False
         defines = compute_defines(refl, self.triangle_count)
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", defines, package=here))
         self.env_filter = env_filter
@@ -398,8 +402,8 @@ class VoxelScene:
             tex.bind_to_image(f, read=False, write=True, level=0)
         if mode == 0:
             self.columns.bind_to_image(COLUMN_IMAGE, read=False, write=True, level=0)
-        for f, tex in enumerate(self.gloss):  # written by the coverage and direct passes, read by the bounce passes
-            tex.bind_to_image(GLOSS_IMAGE0 + f, read=False, write=True, level=0)
+        if self.gloss is not None:  # written by the coverage and direct passes, read by the bounce passes
+            self.gloss.bind_to_image(GLOSS_IMAGE, read=False, write=True, level=0)
         p["cascade"] = cascade
         p["inject"] = mode
         set_uniform(p, "lod_min", 0.0)
@@ -432,15 +436,15 @@ class VoxelScene:
             self.build_gloss_mips()
 
     def build_gloss_mips(self) -> None:
-        """The gloss textures' mips (vct_mip.comp's VCT_MIP_GLOSS), composited with the faces' opacities."""
+        """The gloss texture's mips (vct_mip.comp's VCT_MIP_GLOSS), composited with the faces' opacities."""
         p = self.gloss_mip_prog
         for level in range(1, self.mip_levels):
             r = self.resolution >> level
             p["dst_size"] = (r, r, r * self.count)
-            for f, tex in enumerate(self.gloss):
-                tex.bind_to_image(0, read=True, write=False, level=level - 1)
-                tex.bind_to_image(1, read=False, write=True, level=level)
-                self.gloss[f ^ 1].bind_to_image(2, read=True, write=False, level=level - 1)
+            self.gloss.bind_to_image(0, read=True, write=False, level=level - 1)
+            self.gloss.bind_to_image(1, read=False, write=True, level=level)
+            for f in range(6):
+                p["face"] = f
                 self.faces[f].bind_to_image(3, read=True, write=False, level=level - 1)
                 self.faces[f ^ 1].bind_to_image(4, read=True, write=False, level=level - 1)
                 p["axis"] = f // 2
@@ -487,9 +491,8 @@ class VoxelScene:
         self.columns.use(COLUMN_UNIT)
         set_uniform(prog, "vct_columns", COLUMN_UNIT)
         if self.deferred_glossy:
-            for f, tex in enumerate(self.gloss):
-                tex.use(GLOSS_UNIT0 + f)
-                set_uniform(prog, f"vct_gloss_{FACE_NAMES[f]}", GLOSS_UNIT0 + f)
+            self.gloss.use(GLOSS_UNIT)
+            set_uniform(prog, "vct_gloss", GLOSS_UNIT)
             self.env_filter.bind_lookup(prog, ENV_UNIT, cube_uniform="vct_env_cube")
             set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
         g = self.grid
@@ -528,11 +531,12 @@ class VoxelScene:
         return self._read_textures(self.faces, level)
 
     def read_gloss(self, level: int = 0) -> np.ndarray:
-        """The deferred glossy read's gloss textures, as read_faces: rgb the lobe's weight F ks V_g, a its mean times
+        """The deferred glossy read's gloss texture, as read_faces: rgb the lobe's weight F ks V_g, a its mean times
         the exponent, both premultiplied by the coverage."""
         if not self.deferred_glossy:
-            raise ValueError("this voxel scene stores no gloss textures (deferred_glossy is off)")
-        return self._read_textures(self.gloss, level)
+            raise ValueError("this voxel scene stores no gloss texture (deferred_glossy is off)")
+        side_by_side = self._read_textures([self.gloss], level, width=6)[0]  # (C, 6 R_L, R_L, R_L, 4)
+        return np.stack(np.split(side_by_side, 6, axis=1))
 
     def read_columns(self, level: int = 0) -> np.ndarray:
         """(C, R_L, R_L, R_L, 3) float32 indexed [cascade, x, y, z, axis]: the column texture at one mip level."""
@@ -544,20 +548,22 @@ class VoxelScene:
         v = self._read_textures(self.normals, level, rgba8=True)
         return ((255.0 * v[..., :3] - 128.0) / 127.0).astype("f4")  # vct_normal_bytes.glsl
 
-    def _read_textures(self, textures, level: int, rgba8: bool = False) -> np.ndarray:
+    def _read_textures(self, textures, level: int, rgba8: bool = False, width: int = 1) -> np.ndarray:
+        """(T, C, width R_L, R_L, R_L, 4) indexed [texture, cascade, x, y, z, rgba] (`width`: textures that many
+        cascades wide along x, as the gloss texture's six faces)."""
         r = self.resolution >> level
         prog = self.ctx.compute_shader(shader_source("vct_dump.comp", ("DUMP_RGBA8",) if rgba8 else (),
                                                      package=__package__))
-        buf = self.ctx.buffer(reserve=r * r * r * self.count * 16)
+        buf = self.ctx.buffer(reserve=width * r * r * r * self.count * 16)
         out = []
         for tex in textures:
             tex.bind_to_image(0, read=True, write=False, level=level)
             buf.bind_to_storage_buffer(1)
-            prog["size"] = (r, r, r * self.count)
-            prog.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+            prog["size"] = (width * r, r, r * self.count)
+            prog.run(groups(width * r, 4), groups(r, 4), groups(r * self.count, 4))
             self.ctx.memory_barrier()
-            vol = np.frombuffer(buf.read(), dtype="f4").reshape(self.count * r, r, r, 4)  # [z, y, x]
-            out.append(vol.reshape(self.count, r, r, r, 4).transpose(0, 3, 2, 1, 4))
+            vol = np.frombuffer(buf.read(), dtype="f4").reshape(self.count * r, r, width * r, 4)  # [z, y, x]
+            out.append(vol.reshape(self.count, r, r, width * r, 4).transpose(0, 3, 2, 1, 4))
         buf.release()
         prog.release()
         return np.stack(out)
@@ -654,7 +660,7 @@ class VoxelScene:
 
     def release(self) -> None:
         scratch = [b for pair in self.scratch for b in pair]
-        for r in [self.triangles, *scratch, *self.faces, *self.normals, *self.gloss, self.columns,
+        for r in [self.triangles, *scratch, *self.faces, *self.normals, self.gloss, self.columns,
                   self.voxelize_prog, self.normals_prog, self.inject_prog, self.bounce_prog, self.mip_prog,
                   self.gloss_mip_prog, self.normal_mip_prog, self.column_mip_prog,
                   self.probe_prog, self.cone_prog]:
@@ -673,9 +679,13 @@ def sh_source(frame: Frame) -> moderngl.Buffer:
 
 def shared_voxels(frame: Frame) -> VoxelScene:
     if "vct" not in frame.shared:
-        v = frame.scene.realtime.vct
+        rt = frame.scene.realtime
+        v = rt.vct
+        # occlusion alone reads the cones' opacities only, and the direct pass stores nothing a glossy read needs
+        deferred = None if rt.interreflection == "vct" else False
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
-                                         v.diffuse_cones, v.step, bounces=v.bounces, env_filter=frame.env_filter)
+                                         v.diffuse_cones, v.step, bounces=v.bounces, env_filter=frame.env_filter,
+                                         deferred_glossy=deferred)
     return frame.shared["vct"]
 
 

@@ -37,13 +37,9 @@ layout(rgba16f, binding = 4) uniform writeonly image3D out_pz;
 layout(rgba16f, binding = 5) uniform writeonly image3D out_nz;
 layout(rgba16f, binding = 6) uniform writeonly image3D out_columns;  // written by the OCCUPANCY pass only
 #ifdef VCT_DEFERRED_GLOSSY
-// the six faces' gloss texels (vct_trace.glsl's VCT_GLOSS_READ), written by the coverage and direct passes
-layout(rgba16f, binding = 7) uniform writeonly image3D gloss_px;
-layout(rgba16f, binding = 8) uniform writeonly image3D gloss_nx;
-layout(rgba16f, binding = 9) uniform writeonly image3D gloss_py;
-layout(rgba16f, binding = 10) uniform writeonly image3D gloss_ny;
-layout(rgba16f, binding = 11) uniform writeonly image3D gloss_pz;
-layout(rgba16f, binding = 12) uniform writeonly image3D gloss_nz;
+// the six faces' gloss texels (vct_trace.glsl's VCT_GLOSS_READ), side by side along x (face f at x + f R),
+// written by the coverage and direct passes: the eighth image, the most some drivers give a compute shader
+layout(rgba16f, binding = 7) uniform writeonly image3D out_gloss;
 #endif
 uniform int cascade;
 uniform int inject;     // 0: coverage only; 1: direct radiance; 2: direct + gathered bounce
@@ -66,12 +62,7 @@ void put(int f, ivec3 q, vec4 value) {
 
 #ifdef VCT_DEFERRED_GLOSSY
 void put_gloss(int f, ivec3 q, vec4 value) {
-    if (f == 0) imageStore(gloss_px, q, value);
-    else if (f == 1) imageStore(gloss_nx, q, value);
-    else if (f == 2) imageStore(gloss_py, q, value);
-    else if (f == 3) imageStore(gloss_ny, q, value);
-    else if (f == 4) imageStore(gloss_pz, q, value);
-    else imageStore(gloss_nz, q, value);
+    imageStore(out_gloss, ivec3(q.x + f * vct_resolution, q.yz), value);
 }
 #endif
 

@@ -73,15 +73,26 @@ float vct_lobe_above(float cos_r, float N) {
 #ifdef VCT_GLOSS_READ
 #include "vct_glossy_env.glsl"
 // Per face, the glossy lobe's weight F ks V_g (rgb) and mean(F ks V_g) N (a), premultiplied by the coverage and
-// mipped as the faces' radiance is (vct_inject.comp, vct_mip.comp's VCT_MIP_GLOSS)
-uniform sampler3D vct_gloss_px;
-uniform sampler3D vct_gloss_nx;
-uniform sampler3D vct_gloss_py;
-uniform sampler3D vct_gloss_ny;
-uniform sampler3D vct_gloss_pz;
-uniform sampler3D vct_gloss_nz;
+// mipped as the faces' radiance is (vct_inject.comp, vct_mip.comp's VCT_MIP_GLOSS); the six faces side by side
+// along x in one texture (face f, in the order +X, -X, +Y, -Y, +Z, -Z, at x + f R_L of level L)
+uniform sampler3D vct_gloss;
 // the largest exponent the voxels sum (vct.py's MAX_EXPONENT)
 #define VCT_MAX_EXPONENT 4096.0
+
+// face f's gloss at the cone's fractional mip, as vct_fetch reads the faces (nearest texels, mip-linear)
+vec4 vct_gloss_texel(int f, vec3 local, int c, int level) {
+    int r = max(vct_resolution >> level, 1);
+    ivec3 i = clamp(ivec3(floor(local * float(r))), ivec3(0), ivec3(r - 1));
+    return texelFetch(vct_gloss, ivec3(i.x + f * r, i.y, i.z + c * r), level);
+}
+
+vec4 vct_fetch_gloss(int f, vec3 local, int c, float mip) {
+    int l0 = int(floor(mip));
+    int l1 = min(l0 + 1, int(log2(float(vct_resolution))));
+    float t = mip - float(l0);
+    vec4 a = vct_gloss_texel(f, local, c, l0);
+    return t > 0.0 ? mix(a, vct_gloss_texel(f, local, c, l1), t) : a;
+}
 
 // The glossy radiance a face's surfaces send toward v (unit, from the surface toward the viewer), premultiplied
 // as the face's radiance is: g the face's gloss texel, m its stored normal. Six faces that each store the
@@ -90,8 +101,9 @@ uniform sampler3D vct_gloss_nz;
 // (benchmarks/vct_glossy_storage.py), 24 points of it the environment's radiance taken along the faces'
 // directions instead of the cone's, 15 the sender's visibility, which the faces still blend (V_g per face).
 // Evaluated here, the environment's part is the sender's own lobe about the mirror of v in m,
-// F ks V_g H(m . v, N) L_g(reflect(-v, m), N): the paper's glossy term toward v with the face's visibility.
-// In the mips m is the faces' opacity-weighted mean normal and N the weight-weighted mean exponent.
+// F ks V_g H(m . v, N) L_g(reflect(-v, m), N): the paper's glossy term toward v with the face's visibility V_g
+// and its Fresnel F (Schlick's at the face's axis: 1 for Phong). In the mips m is the faces' opacity-weighted
+// mean normal and N the weight-weighted mean exponent.
 vec3 vct_gloss_radiance(vec4 g, vec3 m, vec3 v) {
     float weight = (g.r + g.g + g.b) / 3.0;
     if (weight <= 0.0 || dot(m, m) <= VCT_NORMAL_EPS * VCT_NORMAL_EPS) return vec3(0.0);
@@ -275,12 +287,12 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
 #ifdef VCT_GLOSS_READ
     // the glossy light the faces' surfaces send toward the cone (the faces against d, toward -d) and the other
     // way (the faces along d, toward d), evaluated for this direction (vct_gloss_radiance)
-    x.rgb += vct_gloss_radiance(d.x > 0.0 ? vct_fetch(vct_gloss_nx, local, c, mip) : vct_fetch(vct_gloss_px, local, c, mip), mx, -d);
-    y.rgb += vct_gloss_radiance(d.y > 0.0 ? vct_fetch(vct_gloss_ny, local, c, mip) : vct_fetch(vct_gloss_py, local, c, mip), my, -d);
-    z.rgb += vct_gloss_radiance(d.z > 0.0 ? vct_fetch(vct_gloss_nz, local, c, mip) : vct_fetch(vct_gloss_pz, local, c, mip), mz, -d);
-    ox += vct_gloss_radiance(d.x > 0.0 ? vct_fetch(vct_gloss_px, local, c, mip) : vct_fetch(vct_gloss_nx, local, c, mip), qx, d);
-    oy += vct_gloss_radiance(d.y > 0.0 ? vct_fetch(vct_gloss_py, local, c, mip) : vct_fetch(vct_gloss_ny, local, c, mip), qy, d);
-    oz += vct_gloss_radiance(d.z > 0.0 ? vct_fetch(vct_gloss_pz, local, c, mip) : vct_fetch(vct_gloss_nz, local, c, mip), qz, d);
+    x.rgb += vct_gloss_radiance(vct_fetch_gloss(d.x > 0.0 ? 1 : 0, local, c, mip), mx, -d);
+    y.rgb += vct_gloss_radiance(vct_fetch_gloss(d.y > 0.0 ? 3 : 2, local, c, mip), my, -d);
+    z.rgb += vct_gloss_radiance(vct_fetch_gloss(d.z > 0.0 ? 5 : 4, local, c, mip), mz, -d);
+    ox += vct_gloss_radiance(vct_fetch_gloss(d.x > 0.0 ? 0 : 1, local, c, mip), qx, d);
+    oy += vct_gloss_radiance(vct_fetch_gloss(d.y > 0.0 ? 2 : 3, local, c, mip), qy, d);
+    oz += vct_gloss_radiance(vct_fetch_gloss(d.z > 0.0 ? 4 : 5, local, c, mip), qz, d);
 #endif
     // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
