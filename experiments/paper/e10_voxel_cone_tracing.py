@@ -160,13 +160,14 @@ def setting(r: ResultRow) -> tuple[int, int, int] | None:
     return (ov["realtime.vct.resolution"], ov["realtime.vct.cascades"], ov["realtime.vct.diffuse_cones"])
 
 
-def memory(spec: str, resolution: int, cascades: int) -> tuple[int, int]:
-    """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent); a scene
-    with glossy surfaces stores the deferred glossy read's gloss textures too (VoxelScene's default)."""
+def memory(spec: str, resolution: int, cascades: int, interreflection: bool) -> tuple[int, int]:
+    """(bytes of the cascades, bytes of one 3D texture of the same finest voxel over the same extent); with
+    interreflection a scene with glossy surfaces stores the deferred glossy read's gloss texture too (the
+    frame's VoxelScene, vct.shared_voxels)."""
     objects = scenes.load(spec).objects
     lo, hi = vct.scene_bounds(objects)
     g = vct_math.cascades_for(lo, hi, resolution, cascades)
-    glossy = vct.has_glossy([vct.reflectance_of(o.material) for o in objects])
+    glossy = interreflection and vct.has_glossy([vct.reflectance_of(o.material) for o in objects])
     per_voxel = vct.BYTES_PER_VOXEL + (vct.GLOSS_BYTES_PER_VOXEL if glossy else 0)
     return g.bytes_per_cascade(per_voxel) * cascades, g.single_texture_bytes(per_voxel)
 
@@ -363,7 +364,7 @@ def run(context: Context, settings: Settings) -> Section:
         d_draw = direct.realtime_ms.get("draw") if direct else None
         for r in rows:
             st = setting(r)
-            mem = memory(spec, st[0], st[1]) if st else None
+            mem = memory(spec, st[0], st[1], "interreflection" in mode(r)) if st else None
             draw = r.realtime_ms.get("draw")
             trace = None if (st is None or draw is None or d_draw is None) else draw - d_draw
             table.append([name, mode(r), *(map(str, st) if st else ("-", "-", "-")),
@@ -400,9 +401,9 @@ def run(context: Context, settings: Settings) -> Section:
             "pass (`draw`), llvmpipe on 2 shared cores. Trace ms: the shading pass's ms minus the same scene's "
             "direct-only pass (the cones run inside `draw`). Voxel MiB: six RGBA16F faces, the RGBA16F column "
             f"texture and six RGBA8 face normals ({vct.BYTES_PER_VOXEL} bytes a voxel; "
-            f"{vct.BYTES_PER_VOXEL + vct.GLOSS_BYTES_PER_VOXEL} with the six RGBA16F gloss textures of the deferred "
-            "glossy read, in scenes with a glossy surface) with their mip chains for every cascade, against one 3D "
-            "texture with "
+            f"{vct.BYTES_PER_VOXEL + vct.GLOSS_BYTES_PER_VOXEL} with the RGBA16F gloss texture of the deferred "
+            "glossy read, six faces a voxel, with interreflection in scenes with a glossy surface) with their mip "
+            "chains for every cascade, against one 3D texture with "
             "the finest voxel over the outermost "
             "extent. Mean radiances are linear, over the pixels covered in every image; path depth 2 is direct "
             "light with occlusion, depth 2 + k adds k bounces; VCT's k bounces are `[realtime.vct] bounces = k` "

@@ -41,10 +41,19 @@ def test_count_steps_matches_the_progress_calls():
 
 
 def test_memory_cascades_against_one_texture():
-    one, single_one = e10.memory("builtin:cornell-open", 64, 1)
+    one, single_one = e10.memory("builtin:cornell-open", 64, 1, False)
     assert one == single_one  # one cascade is the plain 3D texture
-    three, single = e10.memory("builtin:cornell-open", 64, 3)
+    three, single = e10.memory("builtin:cornell-open", 64, 3, False)
     assert three == 3 * one and single > 20 * three  # 256^3 against three 64^3
+
+
+def test_memory_counts_the_gloss_texture_where_interreflection_reads_a_glossy_surface():
+    """Six RGBA16F faces, the RGBA16F column texture and six RGBA8 normals are 80 bytes a voxel; the gloss
+    texture's six RGBA16F faces add 48 with interreflection on cornell-open (its Phong sphere), none on
+    bowl-diffuse (no glossy surface) or with occlusion alone."""
+    bare, _ = e10.memory("builtin:cornell-open", 32, 2, False)
+    assert e10.memory("builtin:cornell-open", 32, 2, True)[0] == bare * (6 * 8 + 8 + 6 * 4 + 6 * 8) // 80
+    assert e10.memory("builtin:bowl-diffuse", 32, 2, True) == e10.memory("builtin:bowl-diffuse", 32, 2, False)
 
 
 @pytest.mark.gl
