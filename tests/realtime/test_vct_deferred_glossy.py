@@ -37,11 +37,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+import realtime
 import scenes
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
@@ -171,3 +173,23 @@ def test_the_gloss_mips_keep_the_exponent(exponent):
         held = weight > 1e-3
         assert held.sum() >= 4
         np.testing.assert_allclose(gloss[..., 3][held] / weight[held], exponent, rtol=0.01)
+
+
+@pytest.mark.parametrize(("interreflection", "glossy_read", "expected", "bytes_per_voxel"), [
+    (True, "deferred", "deferred", 128), (True, "six_faces", "six faces", 80), (False, "deferred", "six faces", 80)])
+def test_the_frame_reads_gloss_deferred_where_interreflection_asks_for_it(interreflection, glossy_read, expected,
+                                                                            bytes_per_voxel):
+    """`[realtime.vct] glossy_read` chooses the read for a glossy scene; occlusion alone reads the cones' opacities
+    only, so it stores no gloss (80 bytes a voxel: six RGBA16F faces, the RGBA16F columns, six RGBA8 normals; the
+    gloss texture's six RGBA16F faces add 48)."""
+    overrides = {"camera.width": 16, "camera.height": 16, "realtime.occlusion": "vct",
+                 "realtime.vct.resolution": 16, "realtime.vct.cascades": 1, "realtime.vct.glossy_read": glossy_read,
+                 "realtime.timing_frames": 1, "realtime.warmup_frames": 0}
+    if interreflection:
+        overrides["realtime.interreflection"] = "vct"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # occlusion alone: the interreflection the image leaves out
+        render = realtime.render(scenes.load("builtin:torus-phong").with_overrides(overrides))
+    assert render.meta["vct"]["glossy_read"] == expected
+    assert render.meta["vct"]["bytes_per_voxel"] == bytes_per_voxel
+    assert np.isfinite(render.rgb).all()

@@ -6,7 +6,15 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass
 
-from scenes.model.technique_registry import Declaration, combination_error, int_choice, number, param, power_of_two
+from scenes.model.technique_registry import (
+    Declaration,
+    combination_error,
+    int_choice,
+    number,
+    one_of,
+    param,
+    power_of_two,
+)
 
 
 @dataclass(frozen=True)
@@ -17,6 +25,9 @@ class Vct:
     diffuse_cones: int = param(6, int_choice(4, 6, 9))
     step: float = param(0.5, number(0, 4, lo_open=True))
     bounces: int = param(1, number(1, 4, integer=True))
+    #: how a cone reads a glossy surface's reflection of the environment: "deferred" evaluates it toward the cone
+    #: (vct_trace.glsl's vct_gloss_radiance), "six_faces" reads it as stored toward the faces' six axes
+    glossy_read: str = param("deferred", one_of("deferred", "six_faces"))
 
 
 def validate(rt, given: dict, where: str) -> None:
@@ -26,11 +37,13 @@ def validate(rt, given: dict, where: str) -> None:
 
 
 def describe(rt) -> dict:
-    """The table as set; `bounces` (added later) only where it is not its default 1, so that rows described
-    before it existed describe alike."""
+    """The table as set; `bounces` and `glossy_read` (added later) only where they are not their defaults, so
+    that rows described before they existed describe alike."""
     table = asdict(rt.vct)
     if table["bounces"] == 1:
         del table["bounces"]
+    if table["glossy_read"] == "deferred":
+        del table["glossy_read"]
     return {"vct": table}
 
 
@@ -61,7 +74,7 @@ DECLARATIONS = (
         **_COMMON, effect="occlusion", name="vct", rank=30, simulates=frozenset({"occlusion"}),
         implementation="realtime.techniques.vct.vct:VctOcclusion",
         reads=("realtime.vct.resolution", "realtime.vct.cascades", "realtime.vct.diffuse_cones",
-               "realtime.vct.step", "realtime.vct.bounces"),
+               "realtime.vct.step", "realtime.vct.bounces", "realtime.vct.glossy_read"),
         axes={"realtime.vct.resolution": (32, 64, 128), "realtime.vct.cascades": (1, 2, 3),
               "realtime.vct.diffuse_cones": (4, 6, 9)},
         validate=validate,

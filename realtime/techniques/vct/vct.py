@@ -682,7 +682,7 @@ def shared_voxels(frame: Frame) -> VoxelScene:
         rt = frame.scene.realtime
         v = rt.vct
         # occlusion alone reads the cones' opacities only, and the direct pass stores nothing a glossy read needs
-        deferred = None if rt.interreflection == "vct" else False
+        deferred = None if rt.interreflection == "vct" and v.glossy_read == "deferred" else False
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
                                          v.diffuse_cones, v.step, bounces=v.bounces, env_filter=frame.env_filter,
                                          deferred_glossy=deferred)
