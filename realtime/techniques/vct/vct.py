@@ -81,6 +81,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Iterator
 
 import moderngl
 import numpy as np
@@ -418,64 +419,60 @@ class VoxelScene:
         gloss on the opacities and the direct pass, so a bounce pass leaves both."""
         self.build_column_mips()
         p = self.mip_prog
-        R = self.resolution
-        for level in range(1, self.mip_levels):
-            r = R >> level
-            p["dst_size"] = (r, r, r * self.count)
+        for level, r in self._levels(p):
             for f, tex in enumerate(self.faces):
                 tex.bind_to_image(0, read=True, write=False, level=level - 1)
                 tex.bind_to_image(1, read=False, write=True, level=level)
                 self.faces[f ^ 1].bind_to_image(2, read=True, write=False, level=level - 1)  # the opposite face
-                p["axis"] = f // 2
-                p["sign_"] = 1 if f % 2 == 0 else -1
-                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
-            self.ctx.memory_barrier()
+                self._run_face_mip(p, f, r)
         if normals:
             self.build_normal_mips()
         if gloss and self.deferred_glossy:
             self.build_gloss_mips()
 
-    def build_gloss_mips(self) -> None:
-        """The gloss texture's mips (vct_mip.comp's VCT_MIP_GLOSS), composited with the faces' opacities."""
-        p = self.gloss_mip_prog
+    def _levels(self, p: moderngl.ComputeShader) -> Iterator[tuple[int, int]]:
+        """Each mip level after the first, as (level, its edge r), with `p`'s dst_size set; a barrier after each,
+        so that the next level reads what this one wrote."""
         for level in range(1, self.mip_levels):
             r = self.resolution >> level
             p["dst_size"] = (r, r, r * self.count)
+            yield level, r
+            self.ctx.memory_barrier()
+
+    def _run_face_mip(self, p: moderngl.ComputeShader, f: int, r: int) -> None:
+        """One mip level (edge r) of face f's direction through a program whose images are bound."""
+        p["axis"] = f // 2
+        p["sign_"] = 1 if f % 2 == 0 else -1
+        p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
+
+    def build_gloss_mips(self) -> None:
+        """The gloss texture's mips (vct_mip.comp's VCT_MIP_GLOSS), composited with the faces' opacities."""
+        p = self.gloss_mip_prog
+        for level, r in self._levels(p):
             self.gloss.bind_to_image(0, read=True, write=False, level=level - 1)
             self.gloss.bind_to_image(1, read=False, write=True, level=level)
             for f in range(6):
                 p["face"] = f
                 self.faces[f].bind_to_image(3, read=True, write=False, level=level - 1)
                 self.faces[f ^ 1].bind_to_image(4, read=True, write=False, level=level - 1)
-                p["axis"] = f // 2
-                p["sign_"] = 1 if f % 2 == 0 else -1
-                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
-            self.ctx.memory_barrier()
+                self._run_face_mip(p, f, r)
 
     def build_normal_mips(self) -> None:
         """The face normals' mips (vct_normal_mip.comp), weighted by the faces' opacities: after theirs."""
         p = self.normal_mip_prog
-        for level in range(1, self.mip_levels):
-            r = self.resolution >> level
-            p["dst_size"] = (r, r, r * self.count)
+        for level, r in self._levels(p):
             for f, tex in enumerate(self.normals):
                 tex.bind_to_image(0, read=True, write=False, level=level - 1)
                 tex.bind_to_image(1, read=False, write=True, level=level)
                 self.faces[f].bind_to_image(2, read=True, write=False, level=level - 1)
-                p["axis"] = f // 2
-                p["sign_"] = 1 if f % 2 == 0 else -1
-                p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
-            self.ctx.memory_barrier()
+                self._run_face_mip(p, f, r)
 
     def build_column_mips(self) -> None:
         p = self.column_mip_prog
-        for level in range(1, self.mip_levels):
-            r = self.resolution >> level
-            p["dst_size"] = (r, r, r * self.count)
+        for level, r in self._levels(p):
             self.columns.bind_to_image(0, read=True, write=False, level=level - 1)
             self.columns.bind_to_image(1, read=False, write=True, level=level)
             p.run(groups(r, 4), groups(r, 4), groups(r * self.count, 4))
-            self.ctx.memory_barrier()
 
     # -- tracing uniforms -----------------------------------------------------------------------
     def bind_trace(self, prog: moderngl.Program, step: float | None = None) -> None:

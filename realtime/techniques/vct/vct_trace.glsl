@@ -79,21 +79,6 @@ uniform sampler3D vct_gloss;
 // the largest exponent the voxels sum (vct.py's MAX_EXPONENT)
 #define VCT_MAX_EXPONENT 4096.0
 
-// face f's gloss at the cone's fractional mip, as vct_fetch reads the faces (nearest texels, mip-linear)
-vec4 vct_gloss_texel(int f, vec3 local, int c, int level) {
-    int r = max(vct_resolution >> level, 1);
-    ivec3 i = clamp(ivec3(floor(local * float(r))), ivec3(0), ivec3(r - 1));
-    return texelFetch(vct_gloss, ivec3(i.x + f * r, i.y, i.z + c * r), level);
-}
-
-vec4 vct_fetch_gloss(int f, vec3 local, int c, float mip) {
-    int l0 = int(floor(mip));
-    int l1 = min(l0 + 1, int(log2(float(vct_resolution))));
-    float t = mip - float(l0);
-    vec4 a = vct_gloss_texel(f, local, c, l0);
-    return t > 0.0 ? mix(a, vct_gloss_texel(f, local, c, l1), t) : a;
-}
-
 // The glossy radiance a face's surfaces send toward v (unit, from the surface toward the viewer), premultiplied
 // as the face's radiance is: g the face's gloss texel, m its stored normal. Six faces that each store the
 // radiance toward their own axis hand a cone along -v the blend of six directions' reflections: around a
@@ -133,19 +118,24 @@ int vct_cascade_of(vec3 p) {
 // [-1, 1] is 2: a closed wall would pass e^-2 = 13.5 % of the light at every level. Nearest keeps the
 // opacity field piecewise constant, exact for a voxel of opacity alpha; steps of at most one texel
 // (ds / s = step <= 1 with the default 0.5) cannot cross a layer of texels without a sample inside it.
-vec4 vct_texel(sampler3D tex, vec3 local, int c, int level) {
+// `slot`: which of the grids a texture holds side by side along x (the gloss texture's six faces; 0 elsewhere).
+vec4 vct_texel(sampler3D tex, int slot, vec3 local, int c, int level) {
     int r = max(vct_resolution >> level, 1);
     ivec3 i = clamp(ivec3(floor(local * float(r))), ivec3(0), ivec3(r - 1));
-    return texelFetch(tex, ivec3(i.xy, i.z + c * r), level);
+    return texelFetch(tex, ivec3(i.x + slot * r, i.y, i.z + c * r), level);
 }
 
 // the cone's fractional mip: the two levels around it, blended linearly (mip-linear, texel-nearest)
-vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
+vec4 vct_slot_fetch(sampler3D tex, int slot, vec3 local, int c, float mip) {
     int l0 = int(floor(mip));
     int l1 = min(l0 + 1, int(log2(float(vct_resolution))));
     float f = mip - float(l0);
-    vec4 a = vct_texel(tex, local, c, l0);
-    return f > 0.0 ? mix(a, vct_texel(tex, local, c, l1), f) : a;
+    vec4 a = vct_texel(tex, slot, local, c, l0);
+    return f > 0.0 ? mix(a, vct_texel(tex, slot, local, c, l1), f) : a;
+}
+
+vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
+    return vct_slot_fetch(tex, 0, local, c, mip);
 }
 
 #include "vct_normal_bytes.glsl"
@@ -287,12 +277,12 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
 #ifdef VCT_GLOSS_READ
     // the glossy light the faces' surfaces send toward the cone (the faces against d, toward -d) and the other
     // way (the faces along d, toward d), evaluated for this direction (vct_gloss_radiance)
-    x.rgb += vct_gloss_radiance(vct_fetch_gloss(d.x > 0.0 ? 1 : 0, local, c, mip), mx, -d);
-    y.rgb += vct_gloss_radiance(vct_fetch_gloss(d.y > 0.0 ? 3 : 2, local, c, mip), my, -d);
-    z.rgb += vct_gloss_radiance(vct_fetch_gloss(d.z > 0.0 ? 5 : 4, local, c, mip), mz, -d);
-    ox += vct_gloss_radiance(vct_fetch_gloss(d.x > 0.0 ? 0 : 1, local, c, mip), qx, d);
-    oy += vct_gloss_radiance(vct_fetch_gloss(d.y > 0.0 ? 2 : 3, local, c, mip), qy, d);
-    oz += vct_gloss_radiance(vct_fetch_gloss(d.z > 0.0 ? 4 : 5, local, c, mip), qz, d);
+    x.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 1 : 0, local, c, mip), mx, -d);
+    y.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 3 : 2, local, c, mip), my, -d);
+    z.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 5 : 4, local, c, mip), mz, -d);
+    ox += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 0 : 1, local, c, mip), qx, d);
+    oy += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 2 : 3, local, c, mip), qy, d);
+    oz += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 4 : 5, local, c, mip), qz, d);
 #endif
     // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
