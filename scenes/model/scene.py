@@ -446,7 +446,7 @@ ADDED_KEYS = {
 }
 #: keys added to a technique's table after the ids were pinned, with their defaults: they enter a row's id only
 #: where the scene sets them to something else
-ADDED_TABLE_KEYS = {"vct": {"bounces": 1}}
+ADDED_TABLE_KEYS = {"vct": {"bounces": 1, "glossy_read": "deferred"}}
 
 
 class _Schema(Mapping):
