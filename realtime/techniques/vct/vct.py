@@ -275,9 +275,8 @@ class VoxelScene:
             deferred_glossy = env_filter is not None and has_glossy(refl)
         if deferred_glossy and env_filter is None:
             raise ValueError("the deferred glossy read needs the frame's environment store (env_filter)")
-        self.deferred_glossy = bool(deferred_glossy)
-        self.gloss = None
-        if self.deferred_glossy:
+        self.gloss = None  # the deferred glossy read's texture (deferred_glossy: whether there is one)
+        if deferred_glossy:
             # the six faces side by side along x, face f at x in [f R_L, (f + 1) R_L) of every level L
             gloss_size = (6 * resolution, resolution, resolution * cascades)
             limits.check_texture(ctx, "3d", gloss_size, "realtime.vct.resolution and realtime.vct.cascades",
@@ -383,6 +382,11 @@ class VoxelScene:
         p.run(g, g, g)
         self.ctx.memory_barrier()
 
+    @property
+    def deferred_glossy(self) -> bool:
+        """Whether the cones evaluate the glossy surfaces' environment term toward themselves (a gloss texture)."""
+        return self.gloss is not None
+
     def bounce_program(self) -> moderngl.ComputeShader:
         """The injection's program for the bounce passes, which read the cones' radiance (VCT_GLOSS_READ)."""
         if not self.deferred_glossy:
@@ -396,9 +400,6 @@ class VoxelScene:
         self.bind_trace(p, step=self.step * INJECT_STEP_FACTOR)
         self.bind_scratch(p, cascade)
         sh_buffer.bind_to_storage_buffer(2)
-        if self.env_filter is not None:
-            self.env_filter.bind_lookup(p, ENV_UNIT, cube_uniform="vct_env_cube")
-            set_uniform(p, "vct_env_base_size", float(self.env_filter.base_size))
         for f, tex in enumerate(self.faces):
             tex.bind_to_image(f, read=False, write=True, level=0)
         if mode == 0:
@@ -490,6 +491,7 @@ class VoxelScene:
         if self.deferred_glossy:
             self.gloss.use(GLOSS_UNIT)
             set_uniform(prog, "vct_gloss", GLOSS_UNIT)
+        if self.env_filter is not None:  # the glossy lobe's chain: the injection's, and the deferred glossy read's
             self.env_filter.bind_lookup(prog, ENV_UNIT, cube_uniform="vct_env_cube")
             set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
         g = self.grid
