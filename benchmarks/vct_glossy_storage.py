@@ -19,7 +19,15 @@ y sends back toward the receiver, along -w, is taken three ways:
   the weights of the faces that carry light;
 - deferred: the exact unoccluded exitance toward -w (what a read that evaluates the stored normal and lobe
   against the environment would give) times the visibility blended over the faces as the six-face read blends
-  it.
+  it;
+- deferred, visibility at the mirror: the same unoccluded exitance times the lobe's visibility about y's own
+  mirror of w (what a per-direction visibility would give): what is left is the read's factorisation, the
+  environment's lobe mean times the lobe's unblocked share, where the truth is the lobe's mean of the two's
+  product;
+- deferred, nearest diffuse cone: the visibility that of the one of y's six diffuse cones (vct_math.cone_set,
+  in vct_math.tangent_frame) whose axis is nearest y's mirror of w, each cone's the unblocked share of
+  `--sender` directions uniform over its cap and above y (what storing the injection's six cone visibilities
+  a voxel would give).
 
 Prints the one-bounce means over the torus's pixels and their ratios to the exact one. No voxels, no cone
 footprint: the ratios isolate the directional storage. With `--path-tracer-spp` it also renders the path
@@ -36,6 +44,7 @@ import numpy as np
 
 import scenes
 from groundtruth.pathtracer import reference
+from realtime.techniques.vct import vct_math
 from scenes.environment import envmap
 
 RING, TUBE, KS, EXPONENT = 0.7, 0.3, 0.9, 50.0
@@ -82,18 +91,47 @@ def march(origins: np.ndarray, dirs: np.ndarray, t_max: float = 6.0,
     return hit.reshape(shape), (o + t[:, None] * d).reshape(*shape, 3)
 
 
-def lobe_directions(axis: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
-    """`count` directions per row of `axis` (M, 3) from the normalised Phong lobe: cos a = xi^(1 / (N + 1))."""
-    xi1, xi2 = rng.random((len(axis), count)), rng.random((len(axis), count))
-    cos_a = xi1 ** (1.0 / (EXPONENT + 1.0))
-    sin_a = np.sqrt(1.0 - cos_a ** 2)
-    phi = 2.0 * math.pi * xi2
+def tangents(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit vectors across each row of `axis` (M, 3), by vct_math.tangent_frame's helper-axis rule."""
     helper = np.where(np.abs(axis[:, 1:2]) < 0.9, [[0.0, 1.0, 0.0]], [[1.0, 0.0, 0.0]])
     t1 = np.cross(helper, axis)
     t1 /= np.linalg.norm(t1, axis=-1, keepdims=True)
-    t2 = np.cross(axis, t1)
+    return t1, np.cross(axis, t1)
+
+
+def directions_about(axis: np.ndarray, cos_a: np.ndarray, phi: np.ndarray) -> np.ndarray:
+    """(M, K, 3): the directions at polar cos_a and azimuth phi (M, K) about each row of `axis` (M, 3)."""
+    t1, t2 = tangents(axis)
+    sin_a = np.sqrt(np.maximum(0.0, 1.0 - cos_a ** 2))
     return ((sin_a * np.cos(phi))[..., None] * t1[:, None] + (sin_a * np.sin(phi))[..., None] * t2[:, None]
             + cos_a[..., None] * axis[:, None])
+
+
+def lobe_directions(axis: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
+    """`count` directions per row of `axis` (M, 3) from the normalised Phong lobe: cos a = xi^(1 / (N + 1))."""
+    xi1, xi2 = rng.random((len(axis), count)), rng.random((len(axis), count))
+    return directions_about(axis, xi1 ** (1.0 / (EXPONENT + 1.0)), 2.0 * math.pi * xi2)
+
+
+def cap_directions(axis: np.ndarray, half_angle: float, count: int, rng: np.random.Generator) -> np.ndarray:
+    """`count` directions per row of `axis` (M, 3) uniform over the cap of `half_angle` (radians) about it."""
+    xi1, xi2 = rng.random((len(axis), count)), rng.random((len(axis), count))
+    return directions_about(axis, 1.0 - xi1 * (1.0 - math.cos(half_angle)), 2.0 * math.pi * xi2)
+
+
+def nearest_diffuse_cone_visibility(p: np.ndarray, n: np.ndarray, towards: np.ndarray, samples: int) -> np.ndarray:
+    """(M,): the unblocked share, above p, of `samples` directions uniform over the one of p's six diffuse cones
+    (vct_math.cone_set in vct_math.tangent_frame's frame of n, the shading's cones) whose axis is nearest
+    `towards`."""
+    cones = vct_math.cone_set(6)
+    frame = np.stack([*tangents(n), n], 1)  # rows t, b, n per point
+    axes = cones.directions @ frame  # (M, 6, 3)
+    nearest = axes[np.arange(len(p)), np.argmax((axes * towards[:, None]).sum(-1), 1)]
+    w = cap_directions(nearest, cones.half_angle, samples, np.random.default_rng(5))
+    above = (w * n[:, None]).sum(-1) > 0.0
+    # a grazing ray can creep along the tube for thousands of steps
+    blocked, _ = march(np.broadcast_to(p[:, None] + EPSILON * n[:, None], w.shape).copy(), w, max_steps=20000)
+    return np.where(above.any(1), (above & ~blocked).sum(1) / np.maximum(above.sum(1), 1), 1.0)
 
 
 def mirror(incident: np.ndarray, n: np.ndarray) -> np.ndarray:
@@ -160,7 +198,10 @@ def one_bounce_images(scene, pixels: int, subpixels: int, lobe: int, sender_samp
     blend, carried = face_blend(wy, ny, lambda m: sender.lobe(y, ny, m))
     per_ray = {"exact": at_mirror[:, :3],
                "six faces": np.where(carried[:, None], blend[:, :3], 0.0),
-               "deferred": np.where(carried[:, None], at_mirror[:, 3:6] * blend[:, 6:7], 0.0)}
+               "deferred": np.where(carried[:, None], at_mirror[:, 3:6] * blend[:, 6:7], 0.0),
+               "deferred, visibility at the mirror": at_mirror[:, 3:6] * at_mirror[:, 6:7],
+               "deferred, nearest diffuse cone": at_mirror[:, 3:6] * nearest_diffuse_cone_visibility(
+                   y, ny, mirror(wy, ny), sender_samples)[:, None]}
 
     def image(values_at_hits: np.ndarray, background: np.ndarray | None = None) -> np.ndarray:
         full = np.zeros((len(rays), 3)) if background is None else background.copy()
@@ -203,9 +244,10 @@ def main() -> None:
         mask = mask & pt_mask
     exact = float(images["exact"][mask].mean())
     print(f"{int(mask.sum())} torus pixels of {args.pixels ** 2}, {args.subpixels ** 2} rays each")
-    for name in ("exact", "six faces", "deferred"):
+    for name in ("exact", "six faces", "deferred", "deferred, visibility at the mirror",
+                 "deferred, nearest diffuse cone"):
         value = float(images[name][mask].mean())
-        print(f"one bounce, {name:9s}: {value:.5f}  ({value / exact:.3f} of exact)")
+        print(f"one bounce, {name:34s}: {value:.5f}  ({value / exact:.3f} of exact)")
     if args.path_tracer_spp:
         direct = float(images["direct"][mask].mean())
         print(f"direct light: model {direct:.4f}, path tracer {float(pt_direct[mask].mean()):.4f}")

@@ -104,3 +104,28 @@ def test_model_direct_light_is_the_path_tracers():
     assert relative_error(ours, mask) < 0.08
     assert relative_error(ours[:, ::-1], mask & mask[:, ::-1]) > 0.25
     assert relative_error(ours[::-1], mask & mask[::-1]) > 0.25
+
+
+def test_cap_samples_have_the_caps_mean_cosine():
+    """Directions uniform over a cap of half-angle a have mean cos (1 + cos a) / 2 about its axis, all inside it."""
+    axis = np.array([[0.0, 0.6, 0.8]])
+    half = np.radians(33.56)
+    w = model.cap_directions(axis, half, 200_000, np.random.default_rng(3))[0]
+    assert (w @ axis[0]).mean() == pytest.approx((1 + np.cos(half)) / 2, abs=2e-4)
+    assert (w @ axis[0]).min() >= np.cos(half) - 1e-12
+
+
+def test_the_nearest_diffuse_cones_visibility():
+    """The outer equator (1, 0, 0), normal +x: every direction with d_x > 0 leaves the ring's radius for good, so
+    the cone about the normal is wholly open. The inner equator (0.4, 0, 0), normal -x: the cone about the
+    normal looks across the hole, its axis meeting the far side of the tube, its rim (33.6 degrees up) clearing
+    the far tube's top (0.8 tan 33.6 deg = 0.53 > 0.3): partly blocked. Control: the inner point's cone nearest
+    +y (the ring cone 60 degrees up) sees more sky than the one across the hole."""
+    p = np.array([[model.RING + model.TUBE, 0.0, 0.0], [model.RING - model.TUBE, 0.0, 0.0],
+                  [model.RING - model.TUBE, 0.0, 0.0]])
+    n = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])
+    towards = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+    v = model.nearest_diffuse_cone_visibility(p, n, towards, 512)
+    assert v[0] == 1.0
+    assert 0.05 < v[1] < 0.95
+    assert v[2] > v[1] + 0.05
