@@ -757,6 +757,32 @@ def test_column_mip_keeps_the_most_covered_column(ctx):
     assert abs(mean - gpu[0, 0, 0, 1]) > 0.5
 
 
+def test_a_tilted_planes_normals_do_not_spread(ctx):
+    """A flat plane of normal (1, 2, 0) / sqrt 5 holds one normal in every voxel: the stored spread is none
+    (l = 1, alpha byte 0) on the faces it faces, at levels 0-2. The voxeliser's fixed-point sums are rounded per
+    triangle: |sum round(w n S)| / sum round(w S) alone reads 1 - l = 3.6e-4 for this normal's +x face (S = 4096,
+    one triangle), a byte of 5, so the rounding's bound is taken out (vct_normals.comp)."""
+    n = np.array([1.0, 2.0, 0.0]) / math.sqrt(5.0)
+    scale = 4096.0
+    w = n[0]
+    unrounded = np.linalg.norm(np.round(w * n * scale)) / np.round(w * scale)
+    assert round(255.0 * math.sqrt(1.0 - unrounded)) >= 4  # what the bound takes out
+    u, v = np.array([-n[1], n[0], 0.0]), np.array([0.0, 0.0, 1.0])
+    corners = [1.5 * (su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    plane = obj(corners, [(0, 1, 2), (0, 2, 3)], np.tile(n, (4, 1)))
+    scene = scenes.load("builtin:sphere-on-plane")
+    env = sh_of(ctx, scene)
+    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 1), env=env)
+    lengths = []
+    for level in range(3):
+        held = np.linalg.norm(vs.read_normals(level)[:, 0], axis=-1) > 0.5
+        lengths.append(vs.read_normal_mean_lengths(level)[:, 0][held])
+    vs.release()
+    env.release()
+    for level, got in enumerate(lengths):
+        assert got.size > (32 >> level) ** 2 and (got == 1.0).all(), (level, got.min())
+
+
 def test_tilted_plane_covers_each_axis_by_its_normal(ctx):
     """A plane of normal (1, 2, 0) / sqrt 5 through a 32^3 grid: each voxel it touches covers |n_a| / |n|_inf of
     its cross-section along axis a (the plane's piece inside a voxel, of area about h^2 / |n_y|, projects
@@ -1050,15 +1076,56 @@ def test_gpu_normal_mip_matches_numpy(ctx):
     normals = rng.normal(size=(6, 1, res, res, res, 3))
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
     normals[rng.uniform(size=normals.shape[:-1]) < 0.25] = 0.0
-    vs.write_level0(faces, normals.astype("f4"))
+    lengths = rng.uniform(0.3, 1.0, normals.shape[:-1])
+    vs.write_level0(faces, normals.astype("f4"), lengths)
     vs.build_mips()
     stored_n = vs.read_normals(0)[:, 0].astype(np.float64)
+    stored_l = vs.read_normal_mean_lengths(0)[:, 0].astype(np.float64)
     stored_a = vs.read_faces(0)[:, 0, ..., 3].astype(np.float64)
     gpu = vs.read_normals(1)[:, 0]
+    gpu_l = vs.read_normal_mean_lengths(1)[:, 0]
     vs.release()
     want = vct_math.normal_mip(stored_n, stored_a)
     assert np.abs(stored_n - normals[:, 0]).max() < 1.0 / 127.0  # the storage itself
     assert np.abs(gpu - want).max() < 2.0 / 127.0
+    # the spread: sqrt(1 - l) in a byte moves l by at most 2 sqrt(1 - l) / 510 <= 0.004
+    assert np.abs(stored_l - lengths[:, 0]).max() < 0.004
+    assert np.abs(gpu_l - vct_math.normal_mean_length_mip(stored_n, stored_l, stored_a)).max() < 0.01
+
+
+@pytest.mark.parametrize("spec", ["builtin:sphere-on-plane", "builtin:torus-phong"])
+def test_voxelised_normals_spread_only_where_the_surface_turns(ctx, spec):
+    """The stored spread (the length l of the mean of a face's unit normals) of a voxelised scene, at levels 0-5
+    of 64^3: a plane's faces hold one normal, l = 1 at every level up to the byte's rounding (1 - l < 1e-4); a
+    curved surface's spread grows with the texel: the torus's tube (radius 0.3) turns by about h / 0.3 across a
+    texel of edge h, so its median 1 - l grows from under 0.005 at level 0 (h = 0.034: facets of the mesh
+    included) past 0.05 at level 4 (h = 0.55, more than the tube's radius). Control: sphere-on-plane's sphere
+    spreads like the torus at the coarse levels."""
+    scene = scenes.load(spec)
+    env = sh_of(ctx, scene)
+    vs = voxels(ctx, scene.objects, 64, env=env)
+    spread = []
+    for level in range(6):
+        held = np.linalg.norm(vs.read_normals(level), axis=-1) > 0.5
+        spread.append(1.0 - vs.read_normal_mean_lengths(level)[held])
+    plane_l = None
+    if spec == "builtin:sphere-on-plane":
+        # the +Y faces of the layer of voxels holding the most of them, the plane's (the sphere's lowest voxels
+        # there face down), at levels 0-2
+        plane_l = []
+        for level in range(3):
+            held = np.linalg.norm(vs.read_normals(level)[2, 0], axis=-1) > 0.5
+            layer = int(np.argmax(held.sum(axis=(0, 2))))
+            plane_l.append(vs.read_normal_mean_lengths(level)[2, 0][:, layer][held[:, layer]])
+    vs.release()
+    env.release()
+    medians = [float(np.median(s)) for s in spread]
+    assert medians[0] < 0.005
+    assert all(b >= a - 1e-3 for a, b in zip(medians, medians[1:], strict=False)), medians
+    assert max(float(np.percentile(s, 90)) for s in spread[4:]) > 0.05, medians
+    if plane_l is not None:
+        for level, lengths in enumerate(plane_l):
+            assert lengths.size >= (64 >> level) ** 2 // 2 and (1.0 - lengths < 1e-4).all(), level
 
 
 def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):

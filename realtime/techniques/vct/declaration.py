@@ -64,7 +64,10 @@ def describe(rt) -> dict:
 #: 8: the deferred glossy read: where a scene has glossy surfaces, a cone evaluates their environment term toward
 #: itself from a stored lobe weight and exponent (vct_trace.glsl's vct_gloss_radiance) instead of reading the
 #: faces' six stored directions (scenes without glossy surfaces are unchanged)
-MODEL_VERSION = 8
+#: 9: the deferred glossy read takes the mean of the reflections over the reading cone's directions and over the
+#: spread of the normals a face stands for (vct_trace.glsl's vct_broadened_exponent; the normal textures' alpha
+#: stores the spread): scenes without glossy surfaces are unchanged
+MODEL_VERSION = 9
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

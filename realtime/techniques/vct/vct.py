@@ -11,7 +11,8 @@ Storage: six RGBA16F 3D textures, one per face direction (+X, -X, +Y, -Y, +Z, -Z
 toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' coverage along the face's
 axis), the cascades stacked along z, each face with its anisotropic mip chain; one RGBA16F column
 texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read; and six RGBA8 face-normal
-textures (the mean normal of the surfaces facing each face, 0 where none does; bytes 128 + 127 n),
+textures (the mean normal of the surfaces facing each face, 0 where none does; bytes 128 + 127 n; alpha how
+far their normals spread about it: sqrt(1 - l), l the length of the mean of their unit normals),
 mipped like the faces: 7 x 8 + 6 x 4 = 80 bytes per voxel at every level (the seed stores the finest level
 isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
 
@@ -43,7 +44,9 @@ Every frame (timed `voxelize`, its mips as `mip`):
    along x: one image unit, where OpenGL drivers may offer 8; 48 bytes a voxel more), mipped as the radiance
    is; a cone reading a face evaluates the surfaces' lobe toward itself, F ks V_g H L_g(reflect(d, m)), m the
    face's stored normal (vct_trace.glsl's vct_gloss_radiance), where six stored directions would hand it the
-   blend of six reflections.
+   blend of six reflections; the lobe it reads broadened by the cone's aperture and by the spread of the
+   normals the face stands for (the stored l), so that a cone reads the mean of the reflections over its
+   directions and the texel's surfaces, not one sharp lobe.
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
 cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
@@ -263,7 +266,7 @@ class VoxelScene:
         self.columns.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
         self.normals = []
         for _ in range(6):
-            tex = ctx.texture3d(size, 4, dtype="f1")  # RGBA8: bytes 128 + 127 n (vct_normal_bytes.glsl)
+            tex = ctx.texture3d(size, 4, dtype="f1")  # RGBA8: 128 + 127 n, sqrt(1 - l) (vct_normal_bytes.glsl)
             tex.build_mipmaps()
             tex.filter = (moderngl.NEAREST_MIPMAP_NEAREST, moderngl.NEAREST)
             tex.repeat_x = tex.repeat_y = tex.repeat_z = False
@@ -547,6 +550,12 @@ class VoxelScene:
         v = self._read_textures(self.normals, level, rgba8=True)
         return ((255.0 * v[..., :3] - 128.0) / 127.0).astype("f4")  # vct_normal_bytes.glsl
 
+    def read_normal_mean_lengths(self, level: int = 0) -> np.ndarray:
+        """(6, C, R_L, R_L, R_L) float32: the length of the mean of the unit normals each face normal stands for (1
+        for one plane; vct_normal_bytes.glsl stores sqrt(1 - l) in alpha)."""
+        a = self._read_textures(self.normals, level, rgba8=True)[..., 3]
+        return (1.0 - a * a).astype("f4")
+
     def _read_textures(self, textures, level: int, rgba8: bool = False, width: int = 1) -> np.ndarray:
         """(T, C, width R_L, R_L, R_L, 4) indexed [texture, cascade, x, y, z, rgba] (`width`: textures that many
         cascades wide along x, as the gloss texture's six faces)."""
@@ -567,19 +576,23 @@ class VoxelScene:
         prog.release()
         return np.stack(out)
 
-    def write_level0(self, faces: np.ndarray, normals: np.ndarray | None = None) -> None:
+    def write_level0(self, faces: np.ndarray, normals: np.ndarray | None = None,
+                     mean_lengths: np.ndarray | None = None) -> None:
         """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba], and of the face
         normals from (6, C, R, R, R, 3) unit vectors or 0 for none (None: each face's own direction wherever the face is
-        opaque, 0 elsewhere: surfaces along the grid's axes, each facing every face that holds it)."""
+        opaque, 0 elsewhere: surfaces along the grid's axes, each facing every face that holds it), with the lengths
+        of their means of unit normals (6, C, R, R, R) (None: 1, one plane a face)."""
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
             tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())
         if normals is None:
             normals = np.where(faces[..., 3:4] > 0.0, np.asarray(vct_math.FACES, "f4")[:, None, None, None, None],
                                0.0)
-        for f, tex in enumerate(self.normals):  # the bytes of vct_normal_bytes.glsl, alpha unused
+        for f, tex in enumerate(self.normals):  # the bytes of vct_normal_bytes.glsl
             stored = np.zeros(normals.shape[1:-1] + (4,), np.uint8)
             stored[..., :3] = np.round(128.0 + 127.0 * np.clip(normals[f], -1.0, 1.0))
+            if mean_lengths is not None:
+                stored[..., 3] = np.round(255.0 * np.sqrt(np.clip(1.0 - mean_lengths[f], 0.0, 1.0)))
             tex.write(np.ascontiguousarray(stored.transpose(0, 3, 2, 1, 4).reshape(-1)).tobytes())
         # the column texture along each axis: the larger opacity of its two faces
         occ = np.zeros(faces.shape[1:], "f4")

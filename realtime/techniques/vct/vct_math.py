@@ -115,6 +115,22 @@ def glossy_half_angle(exponent: float) -> float:
     return math.radians(min(max(a, lo), hi))
 
 
+def cap_mean_cos(tan_half: float) -> float:
+    """The mean cosine about its axis of directions uniform over a cap of half-angle a (tan a = `tan_half`):
+    (1 + cos a) / 2 (uniform over the cap is uniform in cos on [cos a, 1])."""
+    return 0.5 * (1.0 + 1.0 / math.sqrt(1.0 + tan_half * tan_half))
+
+
+def broadened_exponent(exponent: float, spread_mean_cos: float) -> float:
+    """The Phong exponent of the normalised Phong lobe of exponent N convolved with a spread of directions of
+    mean cosine `spread_mean_cos` (vct_trace.glsl's vct_broadened_exponent mirrors it, with the derivation):
+    zonal convolution on the sphere multiplies the first Legendre coefficients (Funk-Hecke), so the lobe's
+    (N + 1) / (N + 2) times the spread's is the mean cosine mu of the two together, and the Phong lobe of mean
+    cosine mu has N' = (2 mu - 1) / (1 - mu); 0 where mu <= 1/2 (broader than the cosine lobe)."""
+    mu = (exponent + 1.0) / (exponent + 2.0) * spread_mean_cos
+    return 0.0 if mu <= 0.5 else (2.0 * mu - 1.0) / (1.0 - mu)
+
+
 #: midpoint samples of the lobe's polar CDF in `lobe_above_horizon` (vct_trace.glsl's VCT_HORIZON_SAMPLES)
 HORIZON_SAMPLES = 32
 
@@ -335,6 +351,21 @@ def anisotropic_mip(faces: np.ndarray) -> np.ndarray:
     return np.stack(out)
 
 
+def _front_to_back(values: np.ndarray, alphas: np.ndarray, f: int) -> np.ndarray:
+    """Face f's (direction s e_a) 2x2x2 children of `values` (R, R, R, K) composited as its mips composite them:
+    along axis a the child on the s side in front, v_front a_front + v_back (1 - a_front) a_back, the four
+    pairs summed -> (R/2, R/2, R/2, K)."""
+    direction = FACES[f]
+    axis = int(np.flatnonzero(direction)[0])
+    lo_v, hi_v = _halves(values, axis)
+    lo_a, hi_a = _halves(alphas, axis)
+    (fv, fa), (bv, ba) = ((hi_v, hi_a), (lo_v, lo_a)) if direction[axis] > 0 else ((lo_v, lo_a), (hi_v, hi_a))
+    pair = fa[..., None] * fv + ((1.0 - fa) * ba)[..., None] * bv
+    for a in (x for x in range(3) if x != axis):
+        pair = sum(_halves(pair, a))
+    return pair
+
+
 def normal_mip(normals: np.ndarray, alphas: np.ndarray) -> np.ndarray:
     """One level of the face normals' mip (vct_normal_mip.comp): normals (6, R, R, R, 3) indexed [face, x, y, z,
     xyz], unit vectors or 0 where no surface faces the face's direction, and the faces' opacities alphas
@@ -344,17 +375,42 @@ def normal_mip(normals: np.ndarray, alphas: np.ndarray) -> np.ndarray:
     normals = np.asarray(normals, dtype=np.float64)
     alphas = np.clip(np.asarray(alphas, dtype=np.float64), 0.0, 1.0)
     out = []
-    for f, direction in enumerate(FACES):
-        axis = int(np.flatnonzero(direction)[0])
-        lo_n, hi_n = _halves(normals[f], axis)
-        lo_a, hi_a = _halves(alphas[f], axis)
-        (fn, fa), (bn, ba) = ((hi_n, hi_a), (lo_n, lo_a)) if direction[axis] > 0 else ((lo_n, lo_a), (hi_n, hi_a))
-        pair = fa[..., None] * fn + ((1.0 - fa) * ba)[..., None] * bn
-        for a in (x for x in range(3) if x != axis):
-            pair = sum(_halves(pair, a))
+    for f in range(len(FACES)):
+        pair = _front_to_back(normals[f], alphas[f], f)
         length = np.linalg.norm(pair, axis=-1, keepdims=True)
         out.append(np.where(length > 1e-6, pair / np.maximum(length, 1e-300), 0.0))
     return np.stack(out)
+
+
+def normal_mean_length_mip(normals: np.ndarray, mean_lengths: np.ndarray, alphas: np.ndarray) -> np.ndarray:
+    """One level of the face normals' spread (vct_normal_mip.comp, stored as vct_normal_bytes.glsl says): the
+    mean cosine l of a face's surfaces' unit normals about its stored normal (the mean's length at level 0; 1 for
+    one plane). From the children's normals (6, R, R, R, 3) (0: none), their mean cosines (6, R, R, R) and the
+    faces' opacities: the children's means l n / |n| composited as `normal_mip` composites the normals, projected
+    on `normal_mip`'s normal, over the same composite of the weights of the children that hold a normal
+    -> (6, R/2, R/2, R/2), clamped to [0, 1]; 1 where none does. A plane's texels keep 1 whatever their
+    opacities; two opaque children side by side with unit normals n1 and n2 give |n1 + n2| / 2."""
+    normals = np.asarray(normals, dtype=np.float64)
+    alphas = np.clip(np.asarray(alphas, dtype=np.float64), 0.0, 1.0)
+    length = np.linalg.norm(normals, axis=-1, keepdims=True)
+    held = length > 1e-6
+    means = np.where(held, normals / np.maximum(length, 1e-300), 0.0) * np.asarray(mean_lengths, np.float64)[..., None]
+    stored = normal_mip(normals, alphas)
+    out = []
+    for f in range(len(FACES)):
+        mean = _front_to_back(means[f], alphas[f], f)
+        weight = _front_to_back(held[f].astype(np.float64), alphas[f], f)[..., 0]
+        ok = (weight > 0.0) & (np.linalg.norm(stored[f], axis=-1) > 0.0)
+        cosine = (mean * stored[f]).sum(-1) / np.where(ok, weight, 1.0)
+        out.append(np.where(ok, np.clip(cosine, 0.0, 1.0), 1.0))
+    return np.stack(out)
+
+
+def reflection_spread_mean_cos(mean_length: float) -> float:
+    """The mean cosine, about the mirror of v in the surfaces' mean normal, of the mirrors of v in their own unit
+    normals, for normals whose mean has length `mean_length` (vct_trace.glsl's vct_reflection_spread_mean_cos
+    mirrors it, with the derivation): max(2 l^2 - 1, 0)."""
+    return max(2.0 * mean_length * mean_length - 1.0, 0.0)
 
 
 def read_direction(faces_at_voxel: np.ndarray, d: np.ndarray) -> np.ndarray:

@@ -9,7 +9,8 @@ uniform sampler3D vct_face_ny;
 uniform sampler3D vct_face_pz;
 uniform sampler3D vct_face_nz;
 // the same six faces' normals: the mean normal of the surfaces each face's light leaves (vct_read)
-// (0 where no surface faces the face's direction: vct_normals.comp; the bytes: vct_normal_bytes.glsl)
+// (0 where no surface faces the face's direction: vct_normals.comp; the bytes: vct_normal_bytes.glsl), and in
+// alpha how far those surfaces' normals spread about it (read by the deferred glossy read alone)
 uniform sampler3D vct_normal_px;
 uniform sampler3D vct_normal_nx;
 uniform sampler3D vct_normal_py;
@@ -79,6 +80,37 @@ uniform sampler3D vct_gloss;
 // the largest exponent the voxels sum (vct.py's MAX_EXPONENT)
 #define VCT_MAX_EXPONENT 4096.0
 
+// What a cone gathers of a face is the mean, over the cone's directions and over the surfaces the face's texel
+// holds, of each surface's radiance toward the direction it is seen from; for the glossy term, of
+// L_g(reflect(w, n_i), N) over the cone's directions w and the surfaces' normals n_i. Evaluated at the axis d
+// and the mean normal m alone it is one sharp lobe: around a Phong torus (N = 50) the one bounce gathered into
+// narrow bands four times the path tracer's brightest pixel (benchmarks/vct_bounce_images.py). Both spreads
+// turn the mirror direction, so the mean is the environment convolved with the lobe, then with the spread of
+// the mirrors about reflect(d, m). Zonal convolution multiplies Legendre coefficients (Funk-Hecke), so the first,
+// the mean cosine, of the whole is the product of the parts' (vct_broadened_exponent), each spread taken as
+// symmetric about its mean and only its first moment kept:
+// - the cone: a reflection is an isometry of the sphere, so as w ranges over the cone reflect(w, m) ranges over
+//   a cone of the same aperture, mean cosine (1 + cos a) / 2 for directions uniform over a cap of half-angle a
+//   (`cone_mean_cos`, vct_math.cap_mean_cos);
+// - the normals: a normal theta from the mean turns the mirror by up to 2 theta (by 2 theta in the plane of
+//   incidence, less across it: the larger turn taken), and E[cos 2 theta] = 2 E[cos^2 theta] - 1 >= 2 l^2 - 1
+//   (Jensen: E[cos^2] >= E[cos]^2, l = E[cos theta] the normals' mean cosine about the stored normal, stored with
+//   it: vct_normal_bytes.glsl). To first order in the spread every distribution gives 1 - 4 (1 - l); 2 l^2 - 1
+//   is the rim's (all the normals theta from the mean), the most spread a mean cosine l allows, so the read
+//   broadens the lobe at least as much as the normals do (vct_reflection_spread_mean_cos). Toksvig (2005,
+//   "Mipmapping normal maps") broadens a mipmapped normal map's highlight from the same length.
+float vct_reflection_spread_mean_cos(float mean_length) {
+    return max(2.0 * mean_length * mean_length - 1.0, 0.0);
+}
+
+// The normalised Phong lobe of exponent N (mean cosine (N + 1) / (N + 2)) convolved with a spread of mean cosine
+// `spread_mean_cos`: the Phong lobe of mean cosine mu = (N + 1) / (N + 2) spread_mean_cos, N' = (2 mu - 1) /
+// (1 - mu), whose chain level covers it (vct_math.broadened_exponent); broader than the cosine lobe (mu <= 1/2), 0.
+float vct_broadened_exponent(float N, float spread_mean_cos) {
+    float mu = (N + 1.0) / (N + 2.0) * spread_mean_cos;
+    return mu <= 0.5 ? 0.0 : (2.0 * mu - 1.0) / (1.0 - mu);
+}
+
 // The glossy radiance a face's surfaces send toward v (unit, from the surface toward the viewer), premultiplied
 // as the face's radiance is: g the face's gloss texel, m its stored normal. Six faces that each store the
 // radiance toward their own axis hand a cone along -v the blend of six directions' reflections: around a
@@ -88,15 +120,19 @@ uniform sampler3D vct_gloss;
 // Evaluated here, the environment's part is the sender's own lobe about the mirror of v in m,
 // F ks V_g H(m . v, N) L_g(reflect(-v, m), N): the paper's glossy term toward v with the face's visibility V_g
 // and its Fresnel F (Schlick's at the face's axis: 1 for Phong). In the mips m is the faces' opacity-weighted
-// mean normal and N the weight-weighted mean exponent.
-vec3 vct_gloss_radiance(vec4 g, vec3 m, vec3 v) {
+// mean normal and N the weight-weighted mean exponent. The environment's lobe is read broadened by the cone's
+// aperture and the normals' spread (vct_broadened_exponent, above; `mean_length` the stored normal's l,
+// `cone_mean_cos` the reading cone's); the horizon share keeps the surfaces' own N, the BSDF's cut-off.
+vec3 vct_gloss_radiance(vec4 g, vec3 m, float mean_length, vec3 v, float cone_mean_cos) {
     float weight = (g.r + g.g + g.b) / 3.0;
     if (weight <= 0.0 || dot(m, m) <= VCT_NORMAL_EPS * VCT_NORMAL_EPS) return vec3(0.0);
     vec3 n = normalize(m);
     float c = dot(n, v);
     if (c <= 0.0) return vec3(0.0);  // the surfaces face away from the viewer
     float N = clamp(g.a / weight, 0.0, VCT_MAX_EXPONENT);
-    return g.rgb * (vct_lobe_above(c, N) * vct_radiance_scale) * vct_glossy_env(reflect(-v, n), N);
+    return g.rgb * (vct_lobe_above(c, N) * vct_radiance_scale)
+         * vct_glossy_env(reflect(-v, n), vct_broadened_exponent(N, cone_mean_cos
+                                                                   * vct_reflection_spread_mean_cos(mean_length)));
 }
 #endif
 
@@ -140,19 +176,15 @@ vec4 vct_fetch(sampler3D tex, vec3 local, int c, float mip) {
 
 #include "vct_normal_bytes.glsl"
 
-// A face normal at the cone's fractional mip, read as vct_fetch reads the faces (the decoding is affine, so
-// the blend of the two levels' stored values is the blend of their normals; only its sign against d is read).
-// The nearer level alone costs one fetch in place of two (a 64^3 frame of cornell-open: 18 % more than
-// without the normals, against 31 % with the blend), but where the cone's mip lies between a level whose
-// texel holds the surface and one whose texel does not, the blended radiance keeps the first level's light
-// while the nearer level's empty normal drops it: a lit plane seen from its front read 0.56 L.
-vec3 vct_fetch_normal(sampler3D tex, vec3 local, int c, float mip) {
-    return vct_normal_decoded(vct_fetch(tex, local, c, mip));
-}
-
-// the normal of one axis's face: the one pointing toward +a (`positive`, from `toward_pos`) or toward -a
-vec3 vct_axis_normal(sampler3D toward_pos, sampler3D toward_neg, bool positive, vec3 local, int c, float mip) {
-    return positive ? vct_fetch_normal(toward_pos, local, c, mip) : vct_fetch_normal(toward_neg, local, c, mip);
+// The stored bytes of one axis's face normal (vct_normal_bytes.glsl decodes them): the face pointing toward +a
+// (`positive`, from `toward_pos`) or toward -a, at the cone's fractional mip, read as vct_fetch reads the faces
+// (the decoding is affine, so the blend of the two levels' stored values is the blend of their normals). The
+// nearer level alone costs one fetch in place of two (a 64^3 frame of cornell-open: 18 % more than without the
+// normals, against 31 % with the blend), but where the cone's mip lies between a level whose texel holds the
+// surface and one whose texel does not, the blended radiance keeps the first level's light while the nearer
+// level's empty normal drops it: a lit plane seen from its front read 0.56 L.
+vec4 vct_axis_stored_normal(sampler3D toward_pos, sampler3D toward_neg, bool positive, vec3 local, int c, float mip) {
+    return positive ? vct_fetch(toward_pos, local, c, mip) : vct_fetch(toward_neg, local, c, mip);
 }
 
 // the radiance per opacity of a face read (its brightest channel; 0 where transparent)
@@ -254,7 +286,7 @@ vec3 vct_facing_axes(vec3 mx, vec3 my, vec3 mz, vec3 qx, vec3 qy, vec3 qz, vec3 
 // light to the cone. A face whose surfaces face away adds its opacity only (a back, as in vct_front), and that
 // only where vct_facing_axes lets it; a face no surface faces has m = 0 and holds no light. The rgb is 0 where
 // the texel shows the cone the dark side of a two-sided wall (vct_axis_facing).
-vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front) {
+vec4 vct_read(vec3 p, vec3 d, float cone_mean_cos, int c, float mip, out vec3 alphas, out float front) {
     float he = vct_half_extent * exp2(float(c));
     vec3 local = (p - vct_centre) / (2.0 * he) + 0.5;
     vec3 w = d * d;
@@ -266,23 +298,25 @@ vec4 vct_read(vec3 p, vec3 d, int c, float mip, out vec3 alphas, out float front
     vec3 oy = (d.y > 0.0 ? vct_fetch(vct_face_py, local, c, mip) : vct_fetch(vct_face_ny, local, c, mip)).rgb;
     vec3 oz = (d.z > 0.0 ? vct_fetch(vct_face_pz, local, c, mip) : vct_fetch(vct_face_nz, local, c, mip)).rgb;
     // the against faces' normals, and which of those faces' surfaces face the cone (1) or not (0)
-    vec3 mx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x <= 0.0, local, c, mip);
-    vec3 my = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y <= 0.0, local, c, mip);
-    vec3 mz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z <= 0.0, local, c, mip);
+    vec4 smx = vct_axis_stored_normal(vct_normal_px, vct_normal_nx, d.x <= 0.0, local, c, mip);
+    vec4 smy = vct_axis_stored_normal(vct_normal_py, vct_normal_ny, d.y <= 0.0, local, c, mip);
+    vec4 smz = vct_axis_stored_normal(vct_normal_pz, vct_normal_nz, d.z <= 0.0, local, c, mip);
+    vec3 mx = vct_normal_decoded(smx), my = vct_normal_decoded(smy), mz = vct_normal_decoded(smz);
     vec3 sees = vec3(lessThan(vec3(dot(mx, d), dot(my, d), dot(mz, d)), vec3(-VCT_NORMAL_EPS)));
     // the along faces' normals: the surfaces covering each axis that face along d there
-    vec3 qx = vct_axis_normal(vct_normal_px, vct_normal_nx, d.x > 0.0, local, c, mip);
-    vec3 qy = vct_axis_normal(vct_normal_py, vct_normal_ny, d.y > 0.0, local, c, mip);
-    vec3 qz = vct_axis_normal(vct_normal_pz, vct_normal_nz, d.z > 0.0, local, c, mip);
+    vec4 sqx = vct_axis_stored_normal(vct_normal_px, vct_normal_nx, d.x > 0.0, local, c, mip);
+    vec4 sqy = vct_axis_stored_normal(vct_normal_py, vct_normal_ny, d.y > 0.0, local, c, mip);
+    vec4 sqz = vct_axis_stored_normal(vct_normal_pz, vct_normal_nz, d.z > 0.0, local, c, mip);
+    vec3 qx = vct_normal_decoded(sqx), qy = vct_normal_decoded(sqy), qz = vct_normal_decoded(sqz);
 #ifdef VCT_GLOSS_READ
     // the glossy light the faces' surfaces send toward the cone (the faces against d, toward -d) and the other
     // way (the faces along d, toward d), evaluated for this direction (vct_gloss_radiance)
-    x.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 1 : 0, local, c, mip), mx, -d);
-    y.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 3 : 2, local, c, mip), my, -d);
-    z.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 5 : 4, local, c, mip), mz, -d);
-    ox += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 0 : 1, local, c, mip), qx, d);
-    oy += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 2 : 3, local, c, mip), qy, d);
-    oz += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 4 : 5, local, c, mip), qz, d);
+    x.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 1 : 0, local, c, mip), mx, vct_normal_mean_length(smx), -d, cone_mean_cos);
+    y.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 3 : 2, local, c, mip), my, vct_normal_mean_length(smy), -d, cone_mean_cos);
+    z.rgb += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 5 : 4, local, c, mip), mz, vct_normal_mean_length(smz), -d, cone_mean_cos);
+    ox += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.x > 0.0 ? 0 : 1, local, c, mip), qx, vct_normal_mean_length(sqx), d, cone_mean_cos);
+    oy += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.y > 0.0 ? 2 : 3, local, c, mip), qy, vct_normal_mean_length(sqy), d, cone_mean_cos);
+    oz += vct_gloss_radiance(vct_slot_fetch(vct_gloss, d.z > 0.0 ? 4 : 5, local, c, mip), qz, vct_normal_mean_length(sqz), d, cone_mean_cos);
 #endif
     // An axis's coverage blocks the cone only where a surface covering that axis faces it (vct_facing_axes)
     alphas = clamp(vec3(x.a, y.a, z.a), 0.0, 1.0) * vct_facing_axes(mx, my, mz, qx, qy, qz, d);
@@ -340,6 +374,8 @@ int vct_level(float lod, float mip_floor, int inside, out float mip) {
 
 vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3 surface, vec3 n) {
     vec4 acc = vec4(0.0);
+    // the mean cosine of the cone's directions about its axis, uniform over its cap: (1 + cos a) / 2
+    float cone_mean_cos = 0.5 * (1.0 + inversesqrt(1.0 + tan_half * tan_half));
     float t = t0;
     for (int i = 0; i < vct_max_samples && acc.a < 0.995; ++i) {
         vec3 p = origin + t * d;
@@ -364,7 +400,7 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
         int c = vct_level(lod, lod_min, inside, mip);
         vec3 alphas;
         float front;
-        vec4 s = vct_read(p, d, c, mip, alphas, front);
+        vec4 s = vct_read(p, d, cone_mean_cos, c, mip, alphas, front);
         // The injection's bounce passes rewrite level 0's rgb in every cascade while their cones read, so the
         // radiance comes from mips >= vct_rgb_lod_min (the texel of lod from a finer cascade's mip, as above);
         // the opacity, which they rewrite unchanged, is read where the direct pass reads it, so that the direct
@@ -375,7 +411,7 @@ vec4 vct_cone(vec3 origin, vec3 d, float tan_half, float t0, float lod_min, vec3
             int c_rgb = vct_level(max(lod, vct_rgb_lod_min), vct_rgb_lod_min, inside, mip_rgb);
             if (c_rgb != c || mip_rgb != mip) {
                 vec3 unused;
-                s.rgb = vct_read(p, d, c_rgb, mip_rgb, unused, front).rgb;
+                s.rgb = vct_read(p, d, cone_mean_cos, c_rgb, mip_rgb, unused, front).rgb;
             }
         }
         // Opacity also from the finer level whose texel is the step (ds = vct_step * diam: log2(vct_step)
