@@ -757,6 +757,17 @@ def test_column_mip_keeps_the_most_covered_column(ctx):
     assert abs(mean - gpu[0, 0, 0, 1]) > 0.5
 
 
+def tilted_plane_voxels(ctx, n: np.ndarray):
+    """A 3 x 3 square of unit normal n (in the xy plane) through the origin (two triangles), voxelised and
+    injected at 32^3 over [-1, 1]^3 under sphere-on-plane's environment: (VoxelScene, environment store), both
+    for the caller to release."""
+    u, v = np.array([-n[1], n[0], 0.0]), np.array([0.0, 0.0, 1.0])
+    corners = [1.5 * (su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    plane = obj(corners, [(0, 1, 2), (0, 2, 3)], np.tile(n, (4, 1)))
+    env = sh_of(ctx, scenes.load("builtin:sphere-on-plane"))
+    return voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 1), env=env), env
+
+
 def test_a_tilted_planes_normals_do_not_spread(ctx):
     """A flat plane of normal (1, 2, 0) / sqrt 5 holds one normal in every voxel: the stored spread is none
     (l = 1, alpha byte 0) on the faces it faces, at levels 0-2. The voxeliser's fixed-point sums are rounded per
@@ -767,12 +778,7 @@ def test_a_tilted_planes_normals_do_not_spread(ctx):
     w = n[0]
     unrounded = np.linalg.norm(np.round(w * n * scale)) / np.round(w * scale)
     assert round(255.0 * math.sqrt(1.0 - unrounded)) >= 4  # what the bound takes out
-    u, v = np.array([-n[1], n[0], 0.0]), np.array([0.0, 0.0, 1.0])
-    corners = [1.5 * (su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-    plane = obj(corners, [(0, 1, 2), (0, 2, 3)], np.tile(n, (4, 1)))
-    scene = scenes.load("builtin:sphere-on-plane")
-    env = sh_of(ctx, scene)
-    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 1), env=env)
+    vs, env = tilted_plane_voxels(ctx, n)
     lengths = []
     for level in range(3):
         held = np.linalg.norm(vs.read_normals(level)[:, 0], axis=-1) > 0.5
@@ -792,12 +798,7 @@ def test_tilted_plane_covers_each_axis_by_its_normal(ctx):
     and +y, hold its normal in every voxel it touches (with a `continue` in the voxeliser's face loop, Mesa
     llvmpipe dropped the +y face's sums of one voxel here)."""
     n = np.array([1.0, 2.0, 0.0]) / math.sqrt(5.0)
-    u, w = np.array([-n[1], n[0], 0.0]), np.array([0.0, 0.0, 1.0])
-    corners = [1.5 * (su * u + sw * w) for su, sw in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
-    plane = obj(corners, [(0, 1, 2), (0, 2, 3)], np.tile(n, (4, 1)))
-    scene = scenes.load("builtin:sphere-on-plane")
-    env = sh_of(ctx, scene)
-    vs = voxels(ctx, [plane], 32, grid=vct_math.Cascades((0.0, 0.0, 0.0), 1.0, 32, 1), env=env)
+    vs, env = tilted_plane_voxels(ctx, n)
     occ = vs.occupied()
     faces = vs.read_faces(0)[:, 0]
     normals = vs.read_normals(0)[:, 0]

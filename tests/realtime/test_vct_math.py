@@ -313,18 +313,25 @@ def test_normal_mean_length_of_a_plane_is_one_whatever_its_opacities():
     assert got == pytest.approx(np.ones((6, 2, 2, 2)))
 
 
-def test_normal_mean_length_of_two_normals_side_by_side():
-    """Two opaque children side by side across the +Y face's axis (both in front: y = 1) with unit normals n1, n2,
-    the others empty: the mean's length is |n1 + n2| / 2 = cos(theta / 2) for normals theta apart; children
-    whose own normals already spread (length 0.9) scale it by 0.9. Control: the same two one behind the other
-    (x equal, y = 1 and 0) leave the front one alone, length 1."""
-    theta = math.radians(50.0)
+def two_normals_side_by_side(theta: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Unit normals n1, n2 theta apart about +y in two opaque children side by side in the +Y face's front layer
+    (y = 1; x = 0 and 1), the other children empty: (n1, n2, normals, alphas) for `normal_mean_length_mip`."""
     n1 = np.array([math.sin(theta / 2), math.cos(theta / 2), 0.0])
     n2 = np.array([-math.sin(theta / 2), math.cos(theta / 2), 0.0])
     normals = np.zeros((6, 2, 2, 2, 3))
     normals[2, 0, 1, 0], normals[2, 1, 1, 0] = n1, n2
     alphas = np.zeros((6, 2, 2, 2))
     alphas[2, :, 1, 0] = 1.0
+    return n1, n2, normals, alphas
+
+
+def test_normal_mean_length_of_two_normals_side_by_side():
+    """Two opaque children side by side across the +Y face's axis (both in front: y = 1) with unit normals n1, n2,
+    the others empty: the mean's length is |n1 + n2| / 2 = cos(theta / 2) for normals theta apart; children
+    whose own normals already spread (length 0.9) scale it by 0.9. Control: the same two one behind the other
+    (x equal, y = 1 and 0) leave the front one alone, length 1."""
+    theta = math.radians(50.0)
+    n1, n2, normals, alphas = two_normals_side_by_side(theta)
     ones = np.ones((6, 2, 2, 2))
     assert vct_math.normal_mean_length_mip(normals, ones, alphas)[2, 0, 0, 0] == pytest.approx(math.cos(theta / 2))
     assert vct_math.normal_mean_length_mip(normals, 0.9 * ones, alphas)[2, 0, 0, 0] == pytest.approx(
@@ -343,12 +350,7 @@ def test_normal_spread_is_the_mean_cosine_about_the_stored_normal():
     theta = 120 degrees; the mean's length, 0.433, is its cosine about another direction. Control: equal spreads
     give cos(theta / 2)."""
     theta = math.radians(120.0)
-    n1 = np.array([math.sin(theta / 2), math.cos(theta / 2), 0.0])
-    n2 = np.array([-math.sin(theta / 2), math.cos(theta / 2), 0.0])
-    normals = np.zeros((6, 2, 2, 2, 3))
-    normals[2, 0, 1, 0], normals[2, 1, 1, 0] = n1, n2
-    alphas = np.zeros((6, 2, 2, 2))
-    alphas[2, :, 1, 0] = 1.0
+    n1, n2, normals, alphas = two_normals_side_by_side(theta)
     lengths = np.ones((6, 2, 2, 2))
     lengths[2, 1, 1, 0] = 0.5
     got = vct_math.normal_mean_length_mip(normals, lengths, alphas)[2, 0, 0, 0]
