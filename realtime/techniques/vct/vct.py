@@ -12,7 +12,7 @@ toward it; rgb radiance premultiplied by alpha, a the opacity: the surfaces' cov
 axis), the cascades stacked along z, each face with its anisotropic mip chain; one RGBA16F column
 texture (rgb: the coverage along x, y, z, max-mipped) for the cones' finer read; and six RGBA8 face-normal
 textures (the mean normal of the surfaces facing each face, 0 where none does; bytes 128 + 127 n; alpha how
-far their normals spread about it: sqrt(1 - l), l the length of the mean of their unit normals),
+far their normals spread about it: sqrt(1 - l), l their unit normals' mean cosine about it),
 mipped like the faces: 7 x 8 + 6 x 4 = 80 bytes per voxel at every level (the seed stores the finest level
 isotropically; here it is six-face too, so that a thin wall's two sides stay apart).
 
@@ -551,8 +551,8 @@ class VoxelScene:
         return ((255.0 * v[..., :3] - 128.0) / 127.0).astype("f4")  # vct_normal_bytes.glsl
 
     def read_normal_mean_lengths(self, level: int = 0) -> np.ndarray:
-        """(6, C, R_L, R_L, R_L) float32: the length of the mean of the unit normals each face normal stands for (1
-        for one plane; vct_normal_bytes.glsl stores sqrt(1 - l) in alpha)."""
+        """(6, C, R_L, R_L, R_L) float32: the mean cosine l, about each face normal, of the unit normals it stands
+        for (1 for one plane; vct_normal_bytes.glsl stores sqrt(1 - l) in alpha)."""
         a = self._read_textures(self.normals, level, rgba8=True)[..., 3]
         return (1.0 - a * a).astype("f4")
 
@@ -580,8 +580,8 @@ class VoxelScene:
                      mean_lengths: np.ndarray | None = None) -> None:
         """Tests: level 0 of every face from (6, C, R, R, R, 4) [face, cascade, x, y, z, rgba], and of the face
         normals from (6, C, R, R, R, 3) unit vectors or 0 for none (None: each face's own direction wherever the face is
-        opaque, 0 elsewhere: surfaces along the grid's axes, each facing every face that holds it), with the lengths
-        of their means of unit normals (6, C, R, R, R) (None: 1, one plane a face)."""
+        opaque, 0 elsewhere: surfaces along the grid's axes, each facing every face that holds it), with the mean
+        cosines of the unit normals each stands for (6, C, R, R, R) (None: 1, one plane a face)."""
         for f, tex in enumerate(self.faces):
             vol = faces[f].transpose(0, 3, 2, 1, 4).reshape(-1)  # [c, z, y, x]
             tex.write(np.ascontiguousarray(vol, dtype="f2").tobytes())

@@ -408,8 +408,9 @@ def normal_mean_length_mip(normals: np.ndarray, mean_lengths: np.ndarray, alphas
 
 def reflection_spread_mean_cos(mean_length: float) -> float:
     """The mean cosine, about the mirror of v in the surfaces' mean normal, of the mirrors of v in their own unit
-    normals, for normals whose mean has length `mean_length` (vct_trace.glsl's vct_reflection_spread_mean_cos
-    mirrors it, with the derivation): max(2 l^2 - 1, 0)."""
+    normals, for normals of mean cosine `mean_length` about their mean (vct_trace.glsl's
+    vct_reflection_spread_mean_cos mirrors it, with the derivation): max(2 l^2 - 1, 0), the most spread that l
+    allows (Jensen)."""
     return max(2.0 * mean_length * mean_length - 1.0, 0.0)
 
 
