@@ -1,37 +1,47 @@
-"""What each diffuse cone gathers of the voxels' own radiance, against the exact cone integral of that radiance.
+"""Voxel cone tracing's bounce taken apart against ray casts: the cones' read, their quadrature, the injection.
 
     .venv/bin/python benchmarks/vct_cone_gather.py [--scene cornell-open] [--resolutions 32,64,128]
-                                                   [--points 24] [--rays 512] [--seed 0] [--set KEY=VALUE ...]
+                                                   [--points 48] [--rays 512] [--seed 0] [--uniform]
+                                                   [--set KEY=VALUE ...]
 
-VCT's bounce has two halves: the injection (the radiance the voxels hold) and the cone read (what a cone gathers
-of it). This separates them. At points sampled on every object's surface (area-weighted, one cascade), each of
-the six diffuse cones is traced as the shading pass traces it (`VoxelScene.trace_cone`, from the origin offset
-along the normal), and its directions, uniform in solid angle over the cone's cap, are ray cast against the
-scene's triangles (Embree) from the surface point itself: the exact cone integral of the voxels' radiance is the
-mean over those directions of the injected radiance where each ray first meets a surface (0 where it escapes or
-meets a one-sided surface's back), and the exact opacity the share of directions that meet a surface. Printed
-per object and per cone (0 along the normal, 1-5 the ring): VCT's gathered radiance over the exact one, VCT's
-opacity against the exact share, and per object the cosine-weighted sum over the cones, sum_k w_k L_k (the
-irradiance the shading multiplies by the albedo), VCT's over the exact one. A read that matched the exact
-integral would leave VCT's bounce error to the injection alone.
+A point's one bounce is kd / pi times the irradiance its six diffuse cones gather, sum_k w_k L_k, of the radiance
+the voxels hold. Three factors stand between that and the exact bounce, each measured here against a ray cast of
+the scene's triangles (Embree) at points sampled on every object (area-weighted, one cascade):
 
-The injection's half: the voxels' radiance at each point over the exact direct light there, kd / pi int V L cos
-with V ray cast and L the environment's SH9 radiance (the injection's own E(n) is that radiance's cosine
-integral), and over kd / pi E(n) V_exact, the injection's form with the exact visibility (under a constant
-environment, `--set environment.map=builtin:constant`, the two agree and the ratio is the injection's V_d over
-the exact V).
+- the read: each cone traced as the shading traces it (`VoxelScene.trace_cone`, from the origin offset along the
+  normal) against the exact cone integral of the voxels' own radiance, the mean over the cone's directions
+  (uniform in solid angle over its cap) of the voxels' radiance where each ray from the surface point first meets
+  a surface (0 where it escapes or meets a one-sided surface's back); and its opacity against the share of
+  directions that meet a surface;
+- the quadrature: the exact cone integrals weighted as the cones are, sum_k w_k L_k, against the exact
+  irradiance of the same radiance over the whole hemisphere (cosine-weighted rays): what six cones of 33.6° make
+  of the hemisphere even where each reads its own directions exactly;
+- the injection: the voxels' radiance at the point against the exactly shadowed direct light under the same SH9
+  environment, kd / pi int V L cos (V ray cast, L the SH9 radiance, whose cosine integral is the injection's
+  E(n)), and against kd / pi E(n) V, the injection's form with the exact visibility; beside it the shading's own
+  cones' visibility (`VoxelScene.probe`) over the exact one. Under a constant environment
+  (`--set environment.map=builtin:constant`) the injected radiance is kd L V_d, so the injection's ratio is its
+  V_d over the exact V.
+
+Each figure is a ratio of sums over the points, with its standard error (a bootstrap over the points); the row
+"all" weights each point by its object's area and albedo (the bounce's power). `--uniform` sets every lit face
+to radiance 1 (the mips rebuilt): the read and the quadrature then measure geometry alone.
 
 Diffuse scenes only: the radiance at a hit is the voxel's face toward the surface's normal, which is the
 surface's radiance toward every direction only where it is diffuse (`--set "objects.6.material={type =
 'diffuse', kd = [0, 0, 0]}"` turns cornell-open's Phong sphere into a black blocker). bowl-diffuse is one
-object, its inside and outside together.
+object, its inside and outside together. The ring's cones reach 2.2 % of their directions below the surface's
+plane (60° from the normal, 33.6° wide): on a curved surface the ray cast meets the surface's own back there (a
+hit of radiance 0), where VCT's offset cone does not.
 """
 
 from __future__ import annotations
 
 import argparse
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -42,11 +52,14 @@ from realtime.engine.transfer_rays import intersector
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 from scenes.environment.shbasis import sh9
+from scenes.model.scene import Scene, SceneObject
 from scenes.storage.errors import SceneError
 
 #: the face directions in the voxels' order (+X, -X, +Y, -Y, +Z, -Z)
 FACE_AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [0, 0, -1]], dtype=np.float64)
 CONES = 6
+#: bootstrap resamples of the points for the standard errors
+RESAMPLES = 200
 
 
 @dataclass(frozen=True)
@@ -58,8 +71,13 @@ class Triangles:
     object_id: np.ndarray
     two_sided: np.ndarray
 
+    def areas(self) -> np.ndarray:
+        """Each triangle's area (F,)."""
+        v = self.vertices
+        return 0.5 * np.linalg.norm(np.cross(v[:, 1] - v[:, 0], v[:, 2] - v[:, 0]), axis=1)
 
-def scene_triangles(objects) -> Triangles:
+
+def scene_triangles(objects: Sequence[SceneObject]) -> Triangles:
     """The objects' meshes as one triangle list, each triangle's geometric normal turned to its vertex normals'
     side (a one-sided surface's front)."""
     verts, norms, ids = [], [], []
@@ -76,8 +94,8 @@ def scene_triangles(objects) -> Triangles:
     return Triangles(np.concatenate(verts), np.concatenate(norms), np.concatenate(ids), two_sided)
 
 
-def scene_intersector(tris: Triangles):
-    """Embree's intersector of the triangles, built as they are."""
+def scene_intersector(tris: Triangles) -> Any:
+    """Embree's intersector of the triangles (trimesh's RayMeshIntersector), built as they are."""
     return intersector(tris.vertices.reshape(-1, 3), np.arange(len(tris.vertices) * 3).reshape(-1, 3),
                        "the cone check")
 
@@ -85,6 +103,14 @@ def scene_intersector(tris: Triangles):
 def ray_offset(tris: Triangles) -> float:
     """How far rays start from their surface: 1e-4 of the triangles' bounding-box diagonal."""
     return 1e-4 * float(np.linalg.norm(np.ptp(tris.vertices.reshape(-1, 3), axis=0)))
+
+
+def level0_faces(vs: VoxelScene) -> np.ndarray:
+    """Level 0's six faces (6, R, R, R, 4) of the (one) cascade, rgb in the scene's own units as the cones return
+    them (the faces store radiance times `radiance_scale`)."""
+    faces = vs.read_faces(0)[:, 0]
+    faces[..., :3] /= vs.radiance_scale
+    return faces
 
 
 def grid_lower_corner(vs: VoxelScene) -> np.ndarray:
@@ -96,8 +122,7 @@ def surface_points(tris: Triangles, per_object: int, rng: np.random.Generator) -
     """`per_object` points on each object, area-weighted over its triangles and uniform inside each: (points,
     the triangles' normals, object ids)."""
     pts, nrm, ids = [], [], []
-    area = 0.5 * np.linalg.norm(np.cross(tris.vertices[:, 1] - tris.vertices[:, 0],
-                                         tris.vertices[:, 2] - tris.vertices[:, 0]), axis=1)
+    area = tris.areas()
     for i in np.unique(tris.object_id):
         idx = np.flatnonzero(tris.object_id == i)
         pick = rng.choice(idx, size=per_object, p=area[idx] / area[idx].sum())
@@ -111,6 +136,11 @@ def surface_points(tris: Triangles, per_object: int, rng: np.random.Generator) -
     return np.concatenate(pts), np.concatenate(nrm), np.concatenate(ids)
 
 
+def frames_of(axes: np.ndarray) -> np.ndarray:
+    """The tangent frames (K, 3, 3), rows t, b, n, of unit axes (K, 3), as the shader's vct_frame builds them."""
+    return np.array([vct_math.tangent_frame(a) for a in axes])
+
+
 def cone_directions(axes: np.ndarray, half_angle: float, count: int, rng: np.random.Generator) -> np.ndarray:
     """`count` directions uniform in solid angle over the cap of `half_angle` about each unit axis (K, 3):
     (K, count, 3). cos(theta) uniform in [cos a, 1] is uniform in solid angle."""
@@ -118,54 +148,8 @@ def cone_directions(axes: np.ndarray, half_angle: float, count: int, rng: np.ran
     cz = 1.0 - rng.random((k, count)) * (1.0 - math.cos(half_angle))
     sz = np.sqrt(np.maximum(1.0 - cz * cz, 0.0))
     phi = 2.0 * math.pi * rng.random((k, count))
-    frames = np.array([vct_math.tangent_frame(a) for a in axes])  # (K, 3, 3): rows t, b, n
     local = np.stack([sz * np.cos(phi), sz * np.sin(phi), cz], -1)  # (K, count, 3)
-    return np.einsum("kcj,kjd->kcd", local, frames)
-
-
-def voxel_radiance(faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
-                   normals: np.ndarray) -> np.ndarray:
-    """The grey radiance the voxels hold for surfaces at `points` with `normals` (both (M, 3)): level 0's face
-    toward the normal's largest component (faces (6, R, R, R, 4), premultiplied by the coverage), read in the
-    voxel holding the point or the one of its 26 neighbours where that face is most covered (a surface's point
-    can lie in a voxel the conservative voxeliser left to its neighbour), radiance = mean(rgb) / coverage;
-    0 where no voxel near the point holds that face."""
-    res = faces.shape[1]
-    f = np.argmax(normals @ FACE_AXES.T, axis=1)
-    base = np.floor((points - lo) / voxel).astype(np.int64)
-    best_a = np.zeros(len(points))
-    best_rgb = np.zeros(len(points))
-    for dx in (-1, 0, 1):
-        for dy in (-1, 0, 1):
-            for dz in (-1, 0, 1):
-                j = np.clip(base + (dx, dy, dz), 0, res - 1)
-                texel = faces[f, j[:, 0], j[:, 1], j[:, 2]]
-                better = texel[:, 3] > best_a
-                best_a = np.where(better, texel[:, 3], best_a)
-                best_rgb = np.where(better, texel[:, :3].mean(1), best_rgb)
-    return np.where(best_a > 1e-6, best_rgb / np.maximum(best_a, 1e-6), 0.0)
-
-
-def exact_cones(ray, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
-                directions: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
-    """The exact cone integrals of the voxels' radiance: rays from points (K, 3) + eps along each cone's
-    directions (K, count, 3), first hits from the intersector `ray`: (mean radiance (K,), share of directions
-    that meet a surface (K,)). A one-sided surface met from behind blocks and sends nothing; a two-sided one
-    sends the radiance of the side the ray meets."""
-    k, count, _ = directions.shape
-    d = directions.reshape(-1, 3)
-    o = np.repeat(points, count, axis=0) + eps * d
-    loc, index_ray, index_tri = ray.intersects_location(o, d, multiple_hits=False)
-    radiance = np.zeros(k * count)
-    hit = np.zeros(k * count, dtype=bool)
-    hit[index_ray] = True
-    n = tris.normals[index_tri]
-    facing = np.einsum("mj,mj->m", n, d[index_ray]) < 0.0
-    two = tris.two_sided[tris.object_id[index_tri]]
-    n = np.where((~facing & two)[:, None], -n, n)
-    sends = facing | two
-    radiance[index_ray] = np.where(sends, voxel_radiance(faces, lo, voxel, loc, n), 0.0)
-    return radiance.reshape(k, count).mean(1), hit.reshape(k, count).mean(1)
+    return np.einsum("kcj,kjd->kcd", local, frames_of(axes))
 
 
 def cosine_directions(normals: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -173,12 +157,75 @@ def cosine_directions(normals: np.ndarray, count: int, rng: np.random.Generator)
     the unit disc, lifted to the hemisphere)."""
     u1, u2 = rng.random((len(normals), count)), rng.random((len(normals), count))
     r, phi = np.sqrt(u1), 2.0 * math.pi * u2
-    frames = np.array([vct_math.tangent_frame(n) for n in normals])
     local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1.0 - u1, 0.0))], -1)
-    return np.einsum("pcj,pjd->pcd", local, frames)
+    return np.einsum("pcj,pjd->pcd", local, frames_of(normals))
 
 
-def exact_direct(ray, points: np.ndarray, normals: np.ndarray, albedo: np.ndarray, coeffs: np.ndarray,
+def voxel_radiance(faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
+                   normals: np.ndarray) -> np.ndarray:
+    """The grey radiance the voxels hold for surfaces at `points` with `normals` (both (M, 3)): level 0's face
+    toward the normal's largest component (faces (6, R, R, R, 4), premultiplied by the coverage), radiance =
+    mean(rgb) / coverage, in the voxel holding the point; where that voxel does not hold the face (a point the
+    conservative voxeliser left to a neighbour, a hair past a voxel's boundary), the most covered of its 26
+    neighbours; 0 where none does."""
+    res = faces.shape[1]
+    f = np.argmax(normals @ FACE_AXES.T, axis=1)
+    base = np.floor((points - lo) / voxel).astype(np.int64)
+
+    def texel(offset: tuple[int, int, int]) -> np.ndarray:
+        j = np.clip(base + offset, 0, res - 1)
+        return faces[f, j[:, 0], j[:, 1], j[:, 2]]
+
+    own = texel((0, 0, 0))
+    best_a, best_rgb = own[:, 3].copy(), own[:, :3].mean(1)
+    empty = best_a <= 1e-6
+    for dx in (-1, 0, 1):
+        for dy in (-1, 0, 1):
+            for dz in (-1, 0, 1):
+                t = texel((dx, dy, dz))
+                better = empty & (t[:, 3] > best_a)
+                best_a = np.where(better, t[:, 3], best_a)
+                best_rgb = np.where(better, t[:, :3].mean(1), best_rgb)
+    return np.where(best_a > 1e-6, best_rgb / np.maximum(best_a, 1e-6), 0.0)
+
+
+def hit_radiance(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, origins: np.ndarray,
+                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (origins, directions: (M, 3)) cast with the intersector `ray`: (the voxels' radiance where each first
+    meets a surface, 0 where it escapes; whether it met one). A one-sided surface met from behind blocks and sends
+    nothing; a two-sided one sends the radiance of the side the ray meets."""
+    loc, index_ray, index_tri = ray.intersects_location(origins, directions, multiple_hits=False)
+    radiance = np.zeros(len(origins))
+    hit = np.zeros(len(origins), dtype=bool)
+    hit[index_ray] = True
+    n = tris.normals[index_tri]
+    facing = np.einsum("mj,mj->m", n, directions[index_ray]) < 0.0
+    two = tris.two_sided[tris.object_id[index_tri]]
+    n = np.where((~facing & two)[:, None], -n, n)
+    radiance[index_ray] = np.where(facing | two, voxel_radiance(faces, lo, voxel, loc, n), 0.0)
+    return radiance, hit
+
+
+def exact_cones(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
+                directions: np.ndarray, eps: float) -> tuple[np.ndarray, np.ndarray]:
+    """The exact cone integrals of the voxels' radiance from points (K, 3) over each cone's directions
+    (K, count, 3), rays starting eps along them: (mean radiance (K,), share of directions that meet a surface)."""
+    k, count, _ = directions.shape
+    d = directions.reshape(-1, 3)
+    radiance, hit = hit_radiance(ray, tris, faces, lo, voxel, np.repeat(points, count, axis=0) + eps * d, d)
+    return radiance.reshape(k, count).mean(1), hit.reshape(k, count).mean(1)
+
+
+def exact_irradiance(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
+                     normals: np.ndarray, count: int, eps: float, rng: np.random.Generator) -> np.ndarray:
+    """The irradiance of the voxels' radiance over each point's whole hemisphere, int L cos = pi E[L] over
+    cosine-weighted directions: (P,)."""
+    d = cosine_directions(normals, count, rng).reshape(-1, 3)
+    radiance, _ = hit_radiance(ray, tris, faces, lo, voxel, np.repeat(points, count, axis=0) + eps * d, d)
+    return math.pi * radiance.reshape(len(points), count).mean(1)
+
+
+def exact_direct(ray: Any, points: np.ndarray, normals: np.ndarray, albedo: np.ndarray, coeffs: np.ndarray,
                  count: int, eps: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """A diffuse surface's direct radiance under the environment's SH9 radiance (coeffs (9, 3)), shadowed by the
     scene: kd / pi int V(w) L(w) cos dw = kd E[V L] over cosine-weighted directions, grey (the channels' mean);
@@ -191,106 +238,175 @@ def exact_direct(ray, points: np.ndarray, normals: np.ndarray, albedo: np.ndarra
     return direct, vis.mean(1)
 
 
+def voxelise(scene: Scene, resolution: int) -> tuple[VoxelScene, np.ndarray, np.ndarray]:
+    """The scene voxelised and injected at `resolution`^3 (one cascade, six cones, step 0.5, the scene's
+    environment as SH9 from a 64^2 filter, as E10's probes do): (the voxels, which the caller releases, the SH9
+    radiance coefficients (9, 3), the irradiance matrices M (3, 4, 4) the injection's E(n) = n^T M n uses)."""
+    ctx = get_context()
+    env = environment_store(ctx, scene)
+    try:
+        env.fill_base(scene.environment.rotation_deg)
+        env.build_chain(None)
+        env.project_sh(64)
+        vs = VoxelScene(ctx, scene.objects, resolution, 1, CONES, 0.5)
+        vs.update(None, env.sh_buffer)
+        coeffs, irradiance = env.read_sh()
+    finally:
+        env.release()
+    return vs, coeffs, irradiance
+
+
+def light_uniformly(vs: VoxelScene) -> None:
+    """Every lit face of level 0 set to radiance 1 (times its coverage, premultiplied, and the radiance scale),
+    the mips rebuilt."""
+    f = vs.read_faces(0)
+    lit = f[..., :3].max(-1) > 0.0
+    f[..., :3] = np.where(lit[..., None], vs.radiance_scale * f[..., 3:4], 0.0)
+    vs.write_level0(f.astype("f4"), vs.read_normals(0), vs.read_normal_mean_lengths(0))
+    vs.build_mips()
+
+
 @dataclass
 class ConeRows:
-    """Per point and cone: VCT's gathered grey radiance and opacity, the exact ones; and the cone weights."""
+    """Per point (P) and cone: VCT's gathered grey radiance and opacity, the exact ones; the cone weights; per
+    point the exact irradiance of the voxels' radiance, the injected and exact direct radiance, the injection's
+    form with the exact visibility, the shading's own cones' irradiance and visibility, the exact visibility,
+    and each point's weight in the row "all" (its object's area over its points, times its albedo)."""
     object_id: np.ndarray  # (P,)
     vct_radiance: np.ndarray  # (P, CONES)
     vct_opacity: np.ndarray
     exact_radiance: np.ndarray
     exact_opacity: np.ndarray
     weights: np.ndarray  # (CONES,), sum pi
-    injected: np.ndarray  # (P,) the voxels' radiance at each point
-    exact_direct: np.ndarray  # (P,) the exactly shadowed direct radiance under the same SH9 environment
-    unshadowed_times_v: np.ndarray  # (P,) kd / pi E(n) V_exact: the injection's form with the exact visibility
+    exact_irradiance: np.ndarray  # (P,)
+    injected: np.ndarray
+    exact_direct: np.ndarray
+    unshadowed_times_v: np.ndarray  # kd / pi E(n) V_exact
+    probe_irradiance: np.ndarray  # the shading's own diffuse cones (VoxelScene.probe), grey
+    probe_visibility: np.ndarray
+    exact_visibility: np.ndarray
+    power_weight: np.ndarray
 
 
-def voxelise(scene, resolution: int) -> tuple[VoxelScene, np.ndarray, np.ndarray]:
-    """The scene voxelised and injected at `resolution`^3 (one cascade, six cones, step 0.5, the scene's
-    environment as SH9 from a 64^2 filter, as E10's probes do): (the voxels, which the caller releases, the SH9
-    radiance coefficients (9, 3), the irradiance matrices M (3, 4, 4) the injection's E(n) = n^T M n uses)."""
-    ctx = get_context()
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
-    vs = VoxelScene(ctx, scene.objects, resolution, 1, CONES, 0.5)
-    vs.update(None, env.sh_buffer)
-    coeffs, irradiance = env.read_sh()
-    env.release()
-    return vs, coeffs, irradiance
-
-
-def gather(scene, resolution: int, per_object: int, rays: int, seed: int) -> ConeRows:
-    """Voxelise and inject the scene (`voxelise`), then trace and ray cast every point's six diffuse cones and
-    cast its exact direct light."""
+def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int, uniform: bool = False) -> ConeRows:
+    """Voxelise and inject the scene (`voxelise`; `uniform`: `light_uniformly`), then at every point trace and
+    ray cast its six diffuse cones, cast its hemisphere and its exact direct light, and probe the shading's cones."""
+    rng = np.random.default_rng(seed)
+    tris = scene_triangles(scene.objects)
+    points, normals, ids = surface_points(tris, per_object, rng)
+    p = len(points)
+    cones = vct_math.cone_set(CONES)
+    axes = np.einsum("cj,pjd->pcd", cones.directions, frames_of(normals)).reshape(-1, 3)
     vs, coeffs, irradiance = voxelise(scene, resolution)
     try:
-        rng = np.random.default_rng(seed)
-        tris = scene_triangles(scene.objects)
-        points, normals, ids = surface_points(tris, per_object, rng)
+        if uniform:
+            light_uniformly(vs)
         h = vs.grid.voxel_size
         lo = grid_lower_corner(vs)
-        cones = vct_math.cone_set(CONES)
-        axes = np.einsum("cj,pjd->pcd", cones.directions, np.array([vct_math.tangent_frame(n) for n in normals]))
-        p = len(points)
-        rep = np.repeat
-        r = vs.trace_cone(rep(points + NORMAL_OFFSET_VOXELS * h * normals, CONES, 0), axes.reshape(-1, 3),
-                          np.full(p * CONES, math.tan(cones.half_angle)), np.full(p * CONES, START_OFFSET_VOXELS * h),
-                          rep(points, CONES, 0), rep(normals, CONES, 0))
-        faces = vs.read_faces(0)[:, 0]
+        cone = vs.trace_cone(np.repeat(points + NORMAL_OFFSET_VOXELS * h * normals, CONES, 0), axes,
+                             np.full(p * CONES, math.tan(cones.half_angle)),
+                             np.full(p * CONES, START_OFFSET_VOXELS * h), np.repeat(points, CONES, 0),
+                             np.repeat(normals, CONES, 0))
+        probe = vs.probe(points, normals)
+        faces = level0_faces(vs)
     finally:
         vs.release()
     ray = scene_intersector(tris)
-    dirs = cone_directions(axes.reshape(-1, 3), cones.half_angle, rays, rng)
     eps = ray_offset(tris)
-    ex_l, ex_a = exact_cones(ray, tris, faces, lo, h, rep(points, CONES, 0), dirs, eps)
+    ex_l, ex_a = exact_cones(ray, tris, faces, lo, h, np.repeat(points, CONES, 0),
+                             cone_directions(axes, cones.half_angle, rays, rng), eps)
+    hemisphere = exact_irradiance(ray, tris, faces, lo, h, points, normals, rays, eps, rng)
     albedo = np.array([scene.objects[i].material.kd for i in ids], dtype=np.float64)
     direct, v_exact = exact_direct(ray, points, normals, albedo, coeffs, rays, eps, rng)
     n4 = np.c_[normals, np.ones(p)]
     e_sh = np.maximum(np.einsum("pi,cij,pj->pc", n4, irradiance, n4), 0.0)  # the injection's E(n), per channel
-    ao = (albedo / math.pi * e_sh).mean(1) * v_exact
-    return ConeRows(ids, r[:, :3].mean(1).reshape(p, CONES), r[:, 3].reshape(p, CONES),
-                    ex_l.reshape(p, CONES), ex_a.reshape(p, CONES), cones.weights,
-                    voxel_radiance(faces, lo, h, points, normals), direct, ao)
+    area = np.bincount(tris.object_id, weights=tris.areas())
+    power = area[ids] / np.bincount(ids)[ids] * albedo.mean(1)
+    return ConeRows(ids, cone[:, :3].mean(1).reshape(p, CONES), cone[:, 3].reshape(p, CONES),
+                    ex_l.reshape(p, CONES), ex_a.reshape(p, CONES), cones.weights, hemisphere,
+                    voxel_radiance(faces, lo, h, points, normals), direct,
+                    (albedo / math.pi * e_sh).mean(1) * v_exact, probe[:, :3].mean(1), probe[:, 3], v_exact, power)
 
 
-def ratio(a: np.ndarray, b: np.ndarray) -> float:
-    """sum(a) / sum(b); nan where b sums to 0 (nothing to gather)."""
-    s = float(b.sum())
-    return float(a.sum()) / s if s > 0.0 else float("nan")
+def ratio(a: np.ndarray, b: np.ndarray, w: np.ndarray | None = None) -> float:
+    """sum(w a) / sum(w b) over the points (w = 1 when None); nan where the denominator is 0."""
+    w = np.ones(len(a)) if w is None else w
+    s = float(w @ b)
+    return float(w @ a) / s if s > 0.0 else float("nan")
 
 
-def summary(rows: ConeRows, names: list[str]) -> list[str]:
-    """One markdown row per object and one for all: E = sum_k w_k L_k VCT over exact, per cone L VCT over exact,
-    per cone opacity VCT / exact."""
-    out = ["| object | E VCT / exact | L VCT / exact, cones 0-5 | opacity VCT / exact, cones 0-5 | injected / exact "
-           "direct | injected / E(n) V_exact kd / pi |", "|---|---|---|---|---|---|"]
-    groups = [(names[i], rows.object_id == i) for i in np.unique(rows.object_id)] + [("all", rows.object_id >= 0)]
-    for name, m in groups:
-        e = ratio(rows.vct_radiance[m] @ rows.weights, rows.exact_radiance[m] @ rows.weights)
+def with_error(a: np.ndarray, b: np.ndarray, w: np.ndarray, groups: np.ndarray, rng: np.random.Generator) -> str:
+    """ratio(a, b, w) and its bootstrap standard error (the points resampled within each group), "r ± e"."""
+    r = ratio(a, b, w)
+    if not np.isfinite(r):
+        return "-"
+    members = [np.flatnonzero(groups == g) for g in np.unique(groups)]
+    boot = []
+    for _ in range(RESAMPLES):
+        idx = np.concatenate([rng.choice(m, size=len(m)) for m in members])
+        boot.append(ratio(a[idx], b[idx], w[idx]))
+    return f"{r:.3f} ± {np.nanstd(boot):.3f}"
+
+
+def summary(rows: ConeRows, names: list[str], injection: bool, seed: int = 0) -> list[str]:
+    """The read's and the quadrature's table (one row per object and "all"), and where `injection` the
+    injection's."""
+    rng = np.random.default_rng(seed)
+    groups = [(names[i], rows.object_id == i, np.ones(len(rows.object_id))) for i in np.unique(rows.object_id)]
+    groups.append(("all", rows.object_id >= 0, rows.power_weight))
+    e_vct = rows.vct_radiance @ rows.weights
+    e_cones = rows.exact_radiance @ rows.weights
+    out = ["| object | read: VCT / exact cones | quadrature: exact cones / hemisphere | VCT / hemisphere "
+           "| L VCT / exact, cones 0-5 | opacity VCT / exact, cones 0-5 |", "|---|---|---|---|---|---|"]
+    for name, m, w in groups:
+        g = rows.object_id[m]
         per_l = " ".join(f"{ratio(rows.vct_radiance[m, k], rows.exact_radiance[m, k]):.2f}" for k in range(CONES))
         per_a = " ".join(f"{rows.vct_opacity[m, k].mean():.2f}/{rows.exact_opacity[m, k].mean():.2f}"
                          for k in range(CONES))
-        inj = ratio(rows.injected[m], rows.exact_direct[m])
-        inj_ao = ratio(rows.injected[m], rows.unshadowed_times_v[m])
-        out.append(f"| {name} | {e:.3f} | {per_l} | {per_a} | {inj:.3f} | {inj_ao:.3f} |")
+        out.append(f"| {name} | {with_error(e_vct[m], e_cones[m], w[m], g, rng)} "
+                   f"| {with_error(e_cones[m], rows.exact_irradiance[m], w[m], g, rng)} "
+                   f"| {with_error(e_vct[m], rows.exact_irradiance[m], w[m], g, rng)} | {per_l} | {per_a} |")
+    if not injection:
+        return out
+    out += ["", "| object | injected / exact direct | injected / kd E(n) V / pi | V: shading's cones / exact |",
+            "|---|---|---|---|"]
+    for name, m, w in groups:
+        g = rows.object_id[m]
+        out.append(f"| {name} | {with_error(rows.injected[m], rows.exact_direct[m], w[m], g, rng)} "
+                   f"| {with_error(rows.injected[m], rows.unshadowed_times_v[m], w[m], g, rng)} "
+                   f"| {with_error(rows.probe_visibility[m], rows.exact_visibility[m], w[m], g, rng)} |")
     return out
+
+
+def positive_ints(text: str) -> list[int]:
+    """"32,64" -> [32, 64]; ValueError unless every item is a positive integer."""
+    values = [int(t) for t in text.split(",")]
+    if not values or min(values) <= 0:
+        raise ValueError(text)
+    return values
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default="cornell-open")
     ap.add_argument("--resolutions", default="32,64,128")
-    ap.add_argument("--points", type=int, default=24, help="points per object")
-    ap.add_argument("--rays", type=int, default=512, help="rays per cone for the exact integral")
+    ap.add_argument("--points", type=int, default=48, help="points per object")
+    ap.add_argument("--rays", type=int, default=512, help="rays per cone, per hemisphere and per direct light")
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--uniform", action="store_true", help="every lit face at radiance 1: geometry alone")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scene override")
     a = ap.parse_args()
-    spec = a.scene if ":" in a.scene or a.scene.endswith(".toml") else f"builtin:{a.scene}"
+    try:
+        resolutions = positive_ints(a.resolutions)
+    except ValueError:
+        ap.error(f"--resolutions {a.resolutions!r}: expected positive integers separated by commas")
+    for flag, value in (("--points", a.points), ("--rays", a.rays)):
+        if value <= 0:
+            ap.error(f"{flag} {value}: must be positive")
     bad = [kv for kv in a.set if "=" not in kv]
     if bad:
         ap.error(f"--set {bad[0]!r}: expected KEY=VALUE")
+    spec = a.scene if ":" in a.scene or a.scene.endswith(".toml") else f"builtin:{a.scene}"
     try:
         scene = scenes.load(spec).with_overrides(dict(kv.split("=", 1) for kv in a.set))
     except SceneError as exc:
@@ -302,10 +418,11 @@ def main() -> None:
                  f"diffuse surface's radiance (--set \"objects.{i}.material={{type = 'diffuse', kd = [0, 0, 0]}}\" "
                  "makes it a black blocker)")
     names = [f"{i} {o.shape}" for i, o in enumerate(scene.objects)]
-    for res in (int(r) for r in a.resolutions.split(",")):
-        rows = gather(scene, res, a.points, a.rays, a.seed)
-        print(f"\n{spec} at {res}^3 ({a.points} points an object, {a.rays} rays a cone)")
-        print("\n".join(summary(rows, names)), flush=True)
+    for res in resolutions:
+        rows = gather(scene, res, a.points, a.rays, a.seed, a.uniform)
+        lit = "every lit face at radiance 1" if a.uniform else scene.environment.map
+        print(f"\n{spec} at {res}^3 ({a.points} points an object, {a.rays} rays a cone; {lit})")
+        print("\n".join(summary(rows, names, injection=not a.uniform, seed=a.seed)), flush=True)
 
 
 if __name__ == "__main__":
