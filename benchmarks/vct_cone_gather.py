@@ -46,9 +46,9 @@ from typing import Any
 import numpy as np
 
 import scenes
+from realtime.engine import transfer_rays
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
-from realtime.engine.transfer_rays import intersector
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 from scenes.environment.shbasis import sh9
@@ -96,8 +96,8 @@ def scene_triangles(objects: Sequence[SceneObject]) -> Triangles:
 
 def scene_intersector(tris: Triangles) -> Any:
     """Embree's intersector of the triangles (trimesh's RayMeshIntersector), built as they are."""
-    return intersector(tris.vertices.reshape(-1, 3), np.arange(len(tris.vertices) * 3).reshape(-1, 3),
-                       "the cone check")
+    return transfer_rays.intersector(tris.vertices.reshape(-1, 3),
+                                     np.arange(len(tris.vertices) * 3).reshape(-1, 3), "the cone check")
 
 
 def ray_offset(tris: Triangles) -> float:
@@ -153,12 +153,9 @@ def cone_directions(axes: np.ndarray, half_angle: float, count: int, rng: np.ran
 
 
 def cosine_directions(normals: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
-    """`count` directions with density cos / pi about each unit normal (P, 3): (P, count, 3) (Malley: uniform in
-    the unit disc, lifted to the hemisphere)."""
-    u1, u2 = rng.random((len(normals), count)), rng.random((len(normals), count))
-    r, phi = np.sqrt(u1), 2.0 * math.pi * u2
-    local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.maximum(1.0 - u1, 0.0))], -1)
-    return np.einsum("pcj,pjd->pcd", local, frames_of(normals))
+    """`count` directions with density cos / pi about each unit normal (P, 3): (P, count, 3), the PRT
+    precomputation's rays (transfer_rays.directions: a Fibonacci lattice, Cranley-Patterson rotated per point)."""
+    return transfer_rays.directions(normals, rng.random((len(normals), 2)), transfer_rays.lattice(count))
 
 
 def voxel_radiance(faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.ndarray,
@@ -232,7 +229,7 @@ def exact_direct(ray: Any, points: np.ndarray, normals: np.ndarray, albedo: np.n
     and the cosine-weighted visibility V = E[V]: ((P,), (P,)). albedo (P, 3)."""
     d = cosine_directions(normals, count, rng)
     o = np.repeat(points, count, axis=0) + eps * d.reshape(-1, 3)
-    vis = ~np.asarray(ray.intersects_any(o, d.reshape(-1, 3)), dtype=bool).reshape(len(points), count)
+    vis = transfer_rays.visible(ray, o, d.reshape(-1, 3)).reshape(len(points), count)
     radiance = sh9(d) @ coeffs  # (P, count, 3), unclamped: the radiance whose cosine integral is the injection's E(n)
     direct = (albedo[:, None, :] * radiance * vis[..., None]).mean(1).mean(-1)
     return direct, vis.mean(1)
