@@ -194,7 +194,7 @@ def test_distant_occluder_is_over_occluded_as_measured(ctx):
     # of the cosine lobe. The footprint cap that keeps cones off their own surface (vct_math.footprint_cap:
     # the lookup's coarser texel at most (height - h0) / 1.5) narrows the cone along the normal to between a
     # third and two thirds of its 60-degree width, so an occluder on its axis reads as filling the whole cone
-    # (27.7 % blocked here at 32^3 to 128^3: that cone's whole share of the lobe). A lod bias (finer voxels)
+    # (23.3 % blocked here at 32^3 to 128^3: that cone's whole share of the lobe). A lod bias (finer voxels)
     # does not change it; a looser cap brings back the plane's self-occlusion; tracing a capped cone as 19
     # parallel rays through its disc reads 10.2 % at 64^3 and 128^3 but leaks through a thin wall (over 1 %;
     # docs/voxel-cone-tracing-measurements.md records it).

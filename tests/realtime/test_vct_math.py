@@ -22,12 +22,83 @@ def test_cone_weights_cover_the_cosine_lobe(count):
     cones = vct_math.cone_set(count)
     assert len(cones.directions) == count == len(cones.weights)
     assert cones.weights.sum() == pytest.approx(math.pi, rel=1e-12)
+    assert (cones.weights > 0).all()
     assert np.allclose(np.linalg.norm(cones.directions, axis=1), 1.0)
-    assert (cones.directions[:, 2] > 0).all()  # all in the upper hemisphere
-    # the cone along the normal carries the largest share (it sees the brightest part of the cosine lobe)
-    assert cones.weights[0] == cones.weights.max()
+    # every cone's cap lies above the horizon: no cone reads directions behind the surface
+    assert (np.arccos(cones.directions[:, 2]) + cones.half_angle < math.pi / 2).all()
     # the ring's cones are equal by symmetry
-    assert np.allclose(cones.weights[1:], cones.weights[1], rtol=1e-2)
+    assert np.allclose(cones.weights[1:], cones.weights[1], rtol=1e-12)
+
+
+def hemisphere_points(m: int) -> np.ndarray:
+    """m equal-area Fibonacci points on the sphere (z uniform in (-1, 1))."""
+    i = np.arange(m) + 0.5
+    z = 1.0 - 2.0 * i / m
+    r = np.sqrt(1.0 - z * z)
+    phi = i * math.pi * (3.0 - math.sqrt(5.0))
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
+
+
+def monomials(w: np.ndarray, order: int) -> np.ndarray:
+    """The monomials x^a y^b z^c of degree a + b + c <= `order` at unit directions w (P, 3): restricted to the
+    sphere they span exactly the spherical harmonics of order <= `order` (any basis of that space will do: the
+    test compares two integrals of the same functions)."""
+    x, y, z = w.T
+    cols = [x ** a * y ** b * z ** (d - a - b) for d in range(order + 1) for a in range(d + 1)
+            for b in range(d - a + 1)]
+    return np.stack(cols, -1)
+
+
+def cone_rule(cones: vct_math.ConeSet, values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """sum_k w_k (the mean of `values` (P, F) over cone k's cap), the caps' means taken over the points that
+    fall in them (the equal-area points make the mean uniform in solid angle)."""
+    out = np.zeros(values.shape[1])
+    for d, w in zip(cones.directions, cones.weights, strict=True):
+        inside = points @ d >= math.cos(cones.half_angle)
+        out += w * values[inside].mean(0)
+    return out
+
+
+def seed_cone_set(count: int) -> vct_math.ConeSet:
+    """The seed's layout: the ring at 60 degrees, each cone weighted by the cosine integral of its Voronoi cell
+    of the hemisphere (normalised to pi)."""
+    ring = count - 1
+    p = math.radians(60.0)
+    d = np.array([(0.0, 0.0, 1.0)] + [(math.sin(p) * math.cos(2 * math.pi * k / ring),
+                                       math.sin(p) * math.sin(2 * math.pi * k / ring), math.cos(p))
+                                      for k in range(ring)])
+    pts = hemisphere_points(400_000)
+    pts = pts[pts[:, 2] > 0]
+    w = np.bincount(np.argmax(pts @ d.T, 1), weights=pts[:, 2], minlength=count)
+    return vct_math.ConeSet(d, vct_math.half_angle_for(count), math.pi * w / w.sum())
+
+
+@pytest.mark.parametrize("count", [4, 6, 9])
+def test_cones_integrate_radiance_of_order_two_exactly(count):
+    """The cone rule sum_k w_k mean_cap_k(L) against the irradiance int_H L cos, both by numerical quadrature
+    over 400 000 equal-area points (no closed form of either), for every monomial of degree <= 2 in w (which
+    span the spherical harmonics of order <= 2), in frames turned about the normal (the ring's azimuth must not
+    matter): equal within 2e-4 pi (the point quadrature's own error is about 3e-5 pi). Controls: some monomial
+    of degree 3 or 4 misses by over 1e-3 pi (the rule is exact to order 2, not beyond), and the seed's ring at
+    60 degrees with Voronoi weights misses degree 1 (L = n . w) by over 10 %."""
+    cones = vct_math.cone_set(count)
+    pts = hemisphere_points(400_000)
+    upper = pts[:, 2] > 0
+    for turn in (0.0, 0.3, 1.1):
+        c, s = math.cos(turn), math.sin(turn)
+        frame = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        values = monomials(pts @ frame.T, 2)
+        exact = 4.0 * math.pi * (values[upper] * pts[upper, 2:3]).sum(0) / len(pts)
+        rule = cone_rule(cones, values, pts)
+        assert np.allclose(rule, exact, atol=2e-4 * math.pi), (turn, rule - exact)
+    quartic = monomials(pts, 4)
+    exact4 = 4.0 * math.pi * (quartic[upper] * pts[upper, 2:3]).sum(0) / len(pts)
+    assert np.abs(cone_rule(cones, quartic, pts) - exact4).max() > 1e-3 * math.pi
+    if count == 6:
+        linear = pts[:, 2:3]
+        exact1 = 4.0 * math.pi * (linear[upper] * pts[upper, 2:3]).sum(0) / len(pts)
+        seed = cone_rule(seed_cone_set(6), linear, pts)[0] / exact1[0]
+        assert seed < 0.9, seed
 
 
 def test_apertures_shrink_with_count():

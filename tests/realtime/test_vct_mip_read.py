@@ -167,9 +167,18 @@ def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
     return vs
 
 
+#: the directions the blocked cones are drawn from, in the normal's frame: one along it and five in a ring 60
+#: degrees from it (a ring of six cones' aperture that reaches 3.6 degrees below the horizon, so that at every
+#: point below a rim one of them, down the wall, meets the inside with all its directions; the shading's own ring,
+#: vct_math.cone_set, stays above the horizon, and only 3 of its 54 cones at these points are fully blocked)
+RING_DIRECTIONS = np.array([(0.0, 0.0, 1.0)] + [(math.sin(math.radians(60.0)) * math.cos(2.0 * math.pi * k / 5),
+                                                 math.sin(math.radians(60.0)) * math.sin(2.0 * math.pi * k / 5),
+                                                 0.5) for k in range(5)])
+
+
 def blocked_cones(vs) -> np.ndarray:
-    """The six diffuse cones at inner points 40, 55, 75 degrees from the bottom (three azimuths) whose every
-    direction meets the inside: (radiance gathered, occlusion) per cone."""
+    """Cones of the six diffuse cones' aperture along RING_DIRECTIONS at inner points 40, 55, 75 degrees from the
+    bottom (three azimuths) whose every direction meets the inside: (radiance gathered, occlusion) per cone."""
 
     cones = vct_math.cone_set(6)
     rng = np.random.default_rng(1)
@@ -179,7 +188,7 @@ def blocked_cones(vs) -> np.ndarray:
         for phi in (0.3, 1.2, 2.5):
             u = np.array([math.sin(theta) * math.sin(phi), -math.cos(theta), math.sin(theta) * math.cos(phi)])
             x, n = BOWL_CENTRE + BOWL_INNER * u, -u
-            for d in cones.directions @ vct_math.tangent_frame(n):
+            for d in RING_DIRECTIONS @ vct_math.tangent_frame(n):
                 if exact_occlusion(x, d, cones.half_angle, rng) > 0.999:
                     rows.append((x + NORMAL_OFFSET_VOXELS * h * n, d, x, n))
     o, d, x, n = (np.array(c) for c in zip(*rows, strict=True))

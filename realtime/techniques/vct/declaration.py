@@ -67,7 +67,9 @@ def describe(rt) -> dict:
 #: 9: the deferred glossy read takes the mean of the reflections over the reading cone's directions and over the
 #: spread of the normals a face stands for (vct_trace.glsl's vct_broadened_exponent; the normal textures' alpha
 #: stores the spread): scenes without glossy surfaces are unchanged
-MODEL_VERSION = 9
+#: 10: the diffuse cones' ring and weights those that integrate every radiance of spherical-harmonic order <= 2
+#: exactly (vct_math.cone_set: six cones' ring at 49.9 deg, where the seed's was at 60 deg with Voronoi weights)
+MODEL_VERSION = 10
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

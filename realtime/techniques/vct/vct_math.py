@@ -2,7 +2,8 @@
 or the GPU side needs without GL.
 
 - `cone_set(n)`: the diffuse cones (directions in the normal's frame, half-angles whose solid angles sum
-  to the hemisphere's 2 pi, cosine weights that sum to pi) for 4, 6 or 9 cones.
+  to the hemisphere's 2 pi, weights that sum to pi) for 4, 6 or 9 cones, a quadrature of the irradiance
+  exact for every radiance of spherical-harmonic order <= 2.
 - `step_transmittance`: what one step of a cone lets through a texel (Beer-Lambert per axis, the optical
   depths weighted by the direction's absolute cosines; vct_trace.glsl's `vct_step_transmittance`).
 - `glossy_half_angle(exponent)`: the glossy cone follows the Phong exponent: its solid angle
@@ -32,8 +33,6 @@ import numpy as np
 
 #: cone counts `[realtime.vct] diffuse_cones` may take
 CONE_COUNTS = (4, 6, 9)
-#: polar angle of the ring of cones around the normal (the seed's 6-cone layout: one along n, five at 60 deg)
-RING_POLAR_DEG = 60.0
 #: the glossy cone's half-angle is clamped to this range (degrees)
 GLOSSY_HALF_ANGLE_RANGE = (1.0, 30.0)
 #: face order of the six directional values: +X, -X, +Y, -Y, +Z, -Z (a face holds what leaves the voxel
@@ -45,7 +44,7 @@ FACES = ((1, 0, 0), (-1, 0, 0), (0, 1, 0), (0, -1, 0), (0, 0, 1), (0, 0, -1))
 class ConeSet:
     directions: np.ndarray  # (n, 3) in the normal's frame (z = the normal)
     half_angle: float  # radians, the same for every cone of the set
-    weights: np.ndarray  # (n,) cosine-weighted solid angle of each cone's share of the hemisphere; sum = pi
+    weights: np.ndarray  # (n,) each cone's weight in the irradiance sum_k w_k L_k; sum = pi
 
 
 def half_angle_for(count: int) -> float:
@@ -55,31 +54,48 @@ def half_angle_for(count: int) -> float:
     return math.acos(1.0 - 1.0 / count)
 
 
+# The diffuse cones as a quadrature of the irradiance E(n) = int_H L(w) (n . w) dw: one cone along n and
+# count - 1 in a ring at polar angle theta (azimuths 2 pi k / (count - 1)), weights w_0 and w_r = (pi - w_0) /
+# (count - 1), each cone reading the mean of L over its cap of half-angle a (half_angle_for). The rule is made
+# exact for every radiance of spherical-harmonic order l <= 2, the part of the radiance irradiance depends on
+# (Ramamoorthi and Hanrahan 2001, "An efficient representation for irradiance environment maps": the clamped
+# cosine's coefficients are pi, 2 pi / 3, pi / 4, 0, -pi / 24, ... for l = 0, 1, 2, 3, 4).
+# - A term Y_lm with m != 0 integrates to 0 against the cosine (azimuthal symmetry about n) and sums to 0 over a
+#   ring of count - 1 >= 3 equally spaced cones for |m| <= 2; the m = 0 terms are the Legendre polynomials
+#   P_l(n . w).
+# - A cap's mean of P_l about its axis d is lambda_l P_l(n . d) (Funk-Hecke), lambda_l the cap's mean of
+#   P_l(cos g), g in [0, a] uniform in solid angle: lambda_0 = 1, lambda_1 = (1 + cos a) / 2,
+#   lambda_2 = cos a (1 + cos a) / 2 (the integral of (3 t^2 - 1) / 2 over [cos a, 1], over 1 - cos a).
+# - The exact integrals of P_0, P_1, P_2 against the cosine over the hemisphere are pi, 2 pi / 3, pi / 4.
+# With W = w_0 / pi and c = cos(theta) the three conditions are
+#   l = 0:  w_0 + (count - 1) w_r = pi                                  (the weights sum to pi)
+#   l = 1:  lambda_1 (W + (1 - W) c) = 2 / 3
+#   l = 2:  lambda_2 (W + (1 - W) (3 c^2 - 1) / 2) = 1 / 4
+# With a1 = (2/3) / lambda_1 and a2 = (1/4) / lambda_2: l = 1 gives (1 - W)(1 - c) = 1 - a1, and l = 1 minus
+# l = 2, (1 - W)(1 - c)(1 + 3 c) / 2 = a1 - a2, so c = (2 (a1 - a2) / (1 - a1) - 1) / 3 and
+# W = 1 - (1 - a1) / (1 - c). Six cones: the ring at 49.9 deg, w_0 = 0.233 pi, w_r = 0.153 pi; four: 42.8 deg,
+# 0.107 pi, 0.298 pi; nine: 53.7 deg, 0.280 pi, 0.090 pi. Every ring's caps stay above the horizon (at most
+# 84.2 deg from n). The seed's ring at 60 deg with each cone weighted by its Voronoi cell's cosine integral is
+# exact for l = 0 only: it reads the irradiance of L = n . w 12 % low (0.585 pi against 2 pi / 3).
 @cache
 def cone_set(count: int) -> ConeSet:
-    """One cone along the normal and count - 1 in a ring at RING_POLAR_DEG; weights are the cosine
-    integral of each cone's Voronoi region of the hemisphere (a fine Fibonacci quadrature, then
-    normalised to sum to pi exactly: the cones together see the whole cosine lobe)."""
+    """One cone along the normal and count - 1 in a ring, half-angles whose solid angles sum to the hemisphere,
+    the ring's polar angle and the weights (sum pi) those that integrate every radiance of spherical-harmonic
+    order <= 2 exactly (the derivation above)."""
     if count not in CONE_COUNTS:
         raise ValueError(f"diffuse_cones must be one of {CONE_COUNTS}, got {count}")
-    polar = math.radians(RING_POLAR_DEG)
+    a = half_angle_for(count)
+    cos_a = math.cos(a)
+    a1 = (2.0 / 3.0) / ((1.0 + cos_a) / 2.0)
+    a2 = 0.25 / (cos_a * (1.0 + cos_a) / 2.0)
+    c = (2.0 * (a1 - a2) / (1.0 - a1) - 1.0) / 3.0
+    w0 = 1.0 - (1.0 - a1) / (1.0 - c)
     ring = count - 1
-    dirs = [(0.0, 0.0, 1.0)]
-    for k in range(ring):
-        phi = 2.0 * math.pi * k / ring
-        dirs.append((math.sin(polar) * math.cos(phi), math.sin(polar) * math.sin(phi), math.cos(polar)))
-    d = np.array(dirs)
-    # hemisphere quadrature: equal-area Fibonacci points (z uniform in (0, 1] is equal area)
-    m = 200_000
-    i = np.arange(m) + 0.5
-    z = 1.0 - i / m
-    r = np.sqrt(1.0 - z * z)
-    phi = i * math.pi * (3.0 - math.sqrt(5.0))
-    pts = np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
-    owner = np.argmax(pts @ d.T, axis=1)
-    w = np.bincount(owner, weights=z, minlength=count) * (2.0 * math.pi / m)
-    w *= math.pi / w.sum()
-    return ConeSet(d, half_angle_for(count), w)
+    s = math.sqrt(1.0 - c * c)
+    dirs = [(0.0, 0.0, 1.0)] + [(s * math.cos(2.0 * math.pi * k / ring), s * math.sin(2.0 * math.pi * k / ring), c)
+                                for k in range(ring)]
+    weights = math.pi * np.array([w0] + [(1.0 - w0) / ring] * ring)
+    return ConeSet(np.array(dirs), a, weights)
 
 
 #: the opacity read is clamped below 1 so that its optical depth stays finite (vct_trace.glsl's VCT_MAX_ALPHA)

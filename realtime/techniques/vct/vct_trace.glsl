@@ -476,7 +476,7 @@ mat3 vct_frame(vec3 n) {
 
 uniform int vct_cone_count;
 uniform vec3 vct_cone_dir[9];     // in the normal's frame (z = n)
-uniform float vct_cone_weight[9]; // cosine-weighted shares of the hemisphere, sum pi
+uniform float vct_cone_weight[9]; // the irradiance quadrature's weights, sum pi (vct_math.cone_set)
 uniform float vct_cone_tan;       // tan of the diffuse cones' half-angle
 
 // The diffuse cones about n at x: (sum_k w_k L_k = gathered irradiance, sum_k w_k (1 - a_k) / pi =
