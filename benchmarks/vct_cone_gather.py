@@ -30,9 +30,10 @@ to radiance 1 (the mips rebuilt): the read and the quadrature then measure geome
 Diffuse scenes only: the radiance at a hit is the voxel's face toward the surface's normal, which is the
 surface's radiance toward every direction only where it is diffuse (`--set "objects.6.material={type =
 'diffuse', kd = [0, 0, 0]}"` turns cornell-open's Phong sphere into a black blocker). bowl-diffuse is one
-object, its inside and outside together. The ring's cones reach 2.2 % of their directions below the surface's
-plane (60° from the normal, 33.6° wide): on a curved surface the ray cast meets the surface's own back there (a
-hit of radiance 0), where VCT's offset cone does not.
+object, its inside and outside together. The diffuse cones' caps stay above the surface's plane
+(`vct_math.cone_set`: at most 83.4° from the normal for six cones); the seed's ring at 60° reached 2.2 % of its
+directions below it, where on a curved surface the ray cast meets the surface's own back (a hit of radiance 0)
+and VCT's offset cone does not.
 """
 
 from __future__ import annotations

@@ -120,7 +120,7 @@ def test_the_nearest_diffuse_cones_visibility():
     the cone about the normal is wholly open. The inner equator (0.4, 0, 0), normal -x: the cone about the
     normal looks across the hole, its axis meeting the far side of the tube, its rim (33.6 degrees up) clearing
     the far tube's top (0.8 tan 33.6 deg = 0.53 > 0.3): partly blocked. Control: the inner point's cone nearest
-    +y (a ring cone, 40 degrees from +y) sees more sky than the one across the hole."""
+    +y (a ring cone, 43.3 degrees from +y) sees more sky than the one across the hole."""
     p = np.array([[model.RING + model.TUBE, 0.0, 0.0], [model.RING - model.TUBE, 0.0, 0.0],
                   [model.RING - model.TUBE, 0.0, 0.0]])
     n = np.array([[1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], [-1.0, 0.0, 0.0]])

@@ -193,10 +193,11 @@ def test_distant_occluder_is_over_occluded_as_measured(ctx):
     # a known limit, measured rather than hidden: a sphere (r = 0.5) one diameter above the plane blocks 11 %
     # of the cosine lobe. The footprint cap that keeps cones off their own surface (vct_math.footprint_cap:
     # the lookup's coarser texel at most (height - h0) / 1.5) narrows the cone along the normal to between a
-    # third and two thirds of its 60-degree width, so an occluder on its axis reads as filling the whole cone
+    # third and two thirds of its 67-degree width, so an occluder on its axis reads as filling the whole cone
     # (23.3 % blocked here at 32^3 to 128^3: that cone's whole share of the lobe). A lod bias (finer voxels)
     # does not change it; a looser cap brings back the plane's self-occlusion; tracing a capped cone as 19
-    # parallel rays through its disc reads 10.2 % at 64^3 and 128^3 but leaks through a thin wall (over 1 %;
+    # parallel rays through its disc read 10.2 % at 64^3 and 128^3 with the seed's cone weights (27.7 % whole)
+    # but leaks through a thin wall (over 1 %;
     # docs/voxel-cone-tracing-measurements.md records it).
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"objects.0.translate": [0.0, 1.5, 0.0]})
     env = sh_of(ctx, scene)

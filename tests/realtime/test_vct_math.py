@@ -30,7 +30,7 @@ def test_cone_weights_cover_the_cosine_lobe(count):
     assert np.allclose(cones.weights[1:], cones.weights[1], rtol=1e-12)
 
 
-def hemisphere_points(m: int) -> np.ndarray:
+def sphere_points(m: int) -> np.ndarray:
     """m equal-area Fibonacci points on the sphere (z uniform in (-1, 1))."""
     i = np.arange(m) + 0.5
     z = 1.0 - 2.0 * i / m
@@ -67,7 +67,7 @@ def seed_cone_set(count: int) -> vct_math.ConeSet:
     d = np.array([(0.0, 0.0, 1.0)] + [(math.sin(p) * math.cos(2 * math.pi * k / ring),
                                        math.sin(p) * math.sin(2 * math.pi * k / ring), math.cos(p))
                                       for k in range(ring)])
-    pts = hemisphere_points(400_000)
+    pts = sphere_points(400_000)
     pts = pts[pts[:, 2] > 0]
     w = np.bincount(np.argmax(pts @ d.T, 1), weights=pts[:, 2], minlength=count)
     return vct_math.ConeSet(d, vct_math.half_angle_for(count), math.pi * w / w.sum())
@@ -82,7 +82,7 @@ def test_cones_integrate_radiance_of_order_two_exactly(count):
     of degree 3 or 4 misses by over 1e-3 pi (the rule is exact to order 2, not beyond), and the seed's ring at
     60 degrees with Voronoi weights misses degree 1 (L = n . w) by over 10 %."""
     cones = vct_math.cone_set(count)
-    pts = hemisphere_points(400_000)
+    pts = sphere_points(400_000)
     upper = pts[:, 2] > 0
     for turn in (0.0, 0.3, 1.1):
         c, s = math.cos(turn), math.sin(turn)

@@ -57,15 +57,15 @@ def half_angle_for(count: int) -> float:
 # The diffuse cones as a quadrature of the irradiance E(n) = int_H L(w) (n . w) dw: one cone along n and
 # count - 1 in a ring at polar angle theta (azimuths 2 pi k / (count - 1)), weights w_0 and w_r = (pi - w_0) /
 # (count - 1), each cone reading the mean of L over its cap of half-angle a (half_angle_for). The rule is made
-# exact for every radiance of spherical-harmonic order l <= 2, the part of the radiance irradiance depends on
-# (Ramamoorthi and Hanrahan 2001, "An efficient representation for irradiance environment maps": the clamped
-# cosine's coefficients are pi, 2 pi / 3, pi / 4, 0, -pi / 24, ... for l = 0, 1, 2, 3, 4).
-# - A term Y_lm with m != 0 integrates to 0 against the cosine (azimuthal symmetry about n) and sums to 0 over a
-#   ring of count - 1 >= 3 equally spaced cones for |m| <= 2; the m = 0 terms are the Legendre polynomials
-#   P_l(n . w).
-# - A cap's mean of P_l about its axis d is lambda_l P_l(n . d) (Funk-Hecke), lambda_l the cap's mean of
+# exact for every radiance of spherical-harmonic order l <= 2, the orders that carry nearly all of the
+# irradiance (Ramamoorthi and Hanrahan 2001, "An efficient representation for irradiance environment maps": the
+# clamped cosine's coefficients are pi, 2 pi / 3, pi / 4, 0, -pi / 24, ... for l = 0, 1, 2, 3, 4).
+# - A cap's mean of any Y_lm about its axis d is lambda_l Y_lm(d) (Funk-Hecke), lambda_l the cap's mean of
 #   P_l(cos g), g in [0, a] uniform in solid angle: lambda_0 = 1, lambda_1 = (1 + cos a) / 2,
 #   lambda_2 = cos a (1 + cos a) / 2 (the integral of (3 t^2 - 1) / 2 over [cos a, 1], over 1 - cos a).
+# - A term Y_lm with m != 0 integrates to 0 against the cosine (azimuthal symmetry about n); the cone along n
+#   reads lambda_l Y_lm(n) = 0 of it, and the ring's cones lambda_l Y_lm(d_k), whose sum over count - 1 >= 3
+#   equally spaced azimuths is 0 for |m| <= 2. The m = 0 terms are the Legendre polynomials P_l(n . w).
 # - The exact integrals of P_0, P_1, P_2 against the cosine over the hemisphere are pi, 2 pi / 3, pi / 4.
 # With W = w_0 / pi and c = cos(theta) the three conditions are
 #   l = 0:  w_0 + (count - 1) w_r = pi                                  (the weights sum to pi)
