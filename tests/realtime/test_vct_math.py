@@ -49,6 +49,12 @@ def monomials(w: np.ndarray, order: int) -> np.ndarray:
     return np.stack(cols, -1)
 
 
+def irradiance(values: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """int over the upper hemisphere of `values` (P, F) times the cosine, from equal-area sphere points."""
+    upper = points[:, 2] > 0
+    return 4.0 * math.pi * (values[upper] * points[upper, 2:3]).sum(0) / len(points)
+
+
 def cone_rule(cones: vct_math.ConeSet, values: np.ndarray, points: np.ndarray) -> np.ndarray:
     """sum_k w_k (the mean of `values` (P, F) over cone k's cap), the caps' means taken over the points that
     fall in them (the equal-area points make the mean uniform in solid angle)."""
@@ -62,11 +68,7 @@ def cone_rule(cones: vct_math.ConeSet, values: np.ndarray, points: np.ndarray) -
 def seed_cone_set(count: int) -> vct_math.ConeSet:
     """The seed's layout: the ring at 60 degrees, each cone weighted by the cosine integral of its Voronoi cell
     of the hemisphere (normalised to pi)."""
-    ring = count - 1
-    p = math.radians(60.0)
-    d = np.array([(0.0, 0.0, 1.0)] + [(math.sin(p) * math.cos(2 * math.pi * k / ring),
-                                       math.sin(p) * math.sin(2 * math.pi * k / ring), math.cos(p))
-                                      for k in range(ring)])
+    d = vct_math.ring_directions(count, 0.5)
     pts = sphere_points(400_000)
     pts = pts[pts[:, 2] > 0]
     w = np.bincount(np.argmax(pts @ d.T, 1), weights=pts[:, 2], minlength=count)
@@ -83,21 +85,18 @@ def test_cones_integrate_radiance_of_order_two_exactly(count):
     60 degrees with Voronoi weights misses degree 1 (L = n . w) by over 10 %."""
     cones = vct_math.cone_set(count)
     pts = sphere_points(400_000)
-    upper = pts[:, 2] > 0
     for turn in (0.0, 0.3, 1.1):
         c, s = math.cos(turn), math.sin(turn)
         frame = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
         values = monomials(pts @ frame.T, 2)
-        exact = 4.0 * math.pi * (values[upper] * pts[upper, 2:3]).sum(0) / len(pts)
+        exact = irradiance(values, pts)
         rule = cone_rule(cones, values, pts)
         assert np.allclose(rule, exact, atol=2e-4 * math.pi), (turn, rule - exact)
     quartic = monomials(pts, 4)
-    exact4 = 4.0 * math.pi * (quartic[upper] * pts[upper, 2:3]).sum(0) / len(pts)
-    assert np.abs(cone_rule(cones, quartic, pts) - exact4).max() > 1e-3 * math.pi
+    assert np.abs(cone_rule(cones, quartic, pts) - irradiance(quartic, pts)).max() > 1e-3 * math.pi
     if count == 6:
         linear = pts[:, 2:3]
-        exact1 = 4.0 * math.pi * (linear[upper] * pts[upper, 2:3]).sum(0) / len(pts)
-        seed = cone_rule(seed_cone_set(6), linear, pts)[0] / exact1[0]
+        seed = cone_rule(seed_cone_set(6), linear, pts)[0] / irradiance(linear, pts)[0]
         assert seed < 0.9, seed
 
 

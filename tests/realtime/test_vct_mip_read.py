@@ -171,9 +171,7 @@ def lit_bowl(ctx, res: int, outer_radiance: float, control: str | None):
 #: degrees from it (a ring of six cones' aperture that reaches 3.6 degrees below the horizon, so that at every
 #: point below a rim one of them, down the wall, meets the inside with all its directions; the shading's own ring,
 #: vct_math.cone_set, stays above the horizon, and only 3 of its 54 cones at these points are fully blocked)
-RING_DIRECTIONS = np.array([(0.0, 0.0, 1.0)] + [(math.sin(math.radians(60.0)) * math.cos(2.0 * math.pi * k / 5),
-                                                 math.sin(math.radians(60.0)) * math.sin(2.0 * math.pi * k / 5),
-                                                 0.5) for k in range(5)])
+RING_DIRECTIONS = vct_math.ring_directions(6, 0.5)
 
 
 def blocked_cones(vs) -> np.ndarray:

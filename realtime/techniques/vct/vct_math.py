@@ -54,6 +54,16 @@ def half_angle_for(count: int) -> float:
     return math.acos(1.0 - 1.0 / count)
 
 
+def ring_directions(count: int, cos_polar: float) -> np.ndarray:
+    """(count, 3) unit directions in the normal's frame (z = the normal): one along it, then count - 1 at polar
+    angle acos(cos_polar), azimuths 2 pi k / (count - 1) from +x."""
+    ring = count - 1
+    s = math.sqrt(1.0 - cos_polar * cos_polar)
+    phi = 2.0 * math.pi * np.arange(ring) / ring
+    around = np.stack([s * np.cos(phi), s * np.sin(phi), np.full(ring, cos_polar)], -1)
+    return np.concatenate([[[0.0, 0.0, 1.0]], around])
+
+
 # The diffuse cones as a quadrature of the irradiance E(n) = int_H L(w) (n . w) dw: one cone along n and
 # count - 1 in a ring at polar angle theta (azimuths 2 pi k / (count - 1)), weights w_0 and w_r = (pi - w_0) /
 # (count - 1), each cone reading the mean of L over its cap of half-angle a (half_angle_for). The rule is made
@@ -91,11 +101,8 @@ def cone_set(count: int) -> ConeSet:
     c = (2.0 * (a1 - a2) / (1.0 - a1) - 1.0) / 3.0
     w0 = 1.0 - (1.0 - a1) / (1.0 - c)
     ring = count - 1
-    s = math.sqrt(1.0 - c * c)
-    dirs = [(0.0, 0.0, 1.0)] + [(s * math.cos(2.0 * math.pi * k / ring), s * math.sin(2.0 * math.pi * k / ring), c)
-                                for k in range(ring)]
     weights = math.pi * np.array([w0] + [(1.0 - w0) / ring] * ring)
-    return ConeSet(np.array(dirs), a, weights)
+    return ConeSet(ring_directions(count, c), a, weights)
 
 
 #: the opacity read is clamped below 1 so that its optical depth stays finite (vct_trace.glsl's VCT_MAX_ALPHA)
