@@ -178,11 +178,17 @@ class EnvironmentFilter:
         self._solid_angle: dict[int, moderngl.Texture] = {}
         self._partials: dict[int, moderngl.Buffer] = {}
         limits.check_created(ctx, "realtime.base_size", f"the {base_size}-texel cube map's lookup table")
+        self.filled = 0  # fill_base calls so far: the solid-angle chain is rebuilt when it lags
+        self.solid_angle_cube: moderngl.TextureCube | None = None  # solid_angle_chain's cube, made on first use
+        self.solid_angle_filled = -1
+        self.solid_angle_prog: moderngl.ComputeShader | None = None
+        self.relative_solid_angle: moderngl.Texture | None = None
 
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
         fill_from_equirect(self.ctx, self.fill_prog, self.env_tex, self.texel_uv, self.cube, self.base_size, 6,
                            rotation_deg)
+        self.filled += 1
 
     def build_chain(self, down_to_level: int | None = None) -> None:
         """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""
@@ -227,6 +233,45 @@ class EnvironmentFilter:
         self.reduce_prog.run(1, 1, 1)
         self.ctx.memory_barrier()
 
+    def solid_angle_chain(self) -> moderngl.TextureCube:
+        """The cube's chain weighted by solid angle, for reads that must keep the environment's mean radiance over
+        wide regions (voxel cone tracing's): texels (rgb w, w), w each base texel's solid angle over the mean
+        texel's, box-filtered as the paper's chain is; a read's rgb / a is the solid-angle-weighted mean.
+
+        Why: a texel of level L should hold the mean radiance over the solid angle it covers,
+        sum_c L_c Omega_c / sum_c Omega_c over its base texels c. The paper's 2x2 box mean is that only where the
+        texels' solid angles are equal; a cube face's centre texel covers 3 sqrt(3) = 5.2 times a corner texel's,
+        so the coarse levels weigh the corners as the centres and miss the mean wherever the light is not spread
+        evenly over the face (under the Ennis probe the 1x1 level's solid-angle-weighted mean radiance is 0.71 of
+        the environment's). Built from level 0 after each fill_base, on the first call after it."""
+        if self.solid_angle_cube is None:
+            self.solid_angle_cube = self.ctx.texture_cube((self.base_size, self.base_size), 4, dtype="f4")
+            self.solid_angle_cube.build_mipmaps()
+            limits.check_created(self.ctx, "realtime.base_size", "the solid-angle-weighted cube chain")
+            self.solid_angle_cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+            self.solid_angle_prog = self.ctx.compute_shader(shader_source("solid_angle_weight.comp"))
+            omega = cubemap.texel_solid_angles(self.base_size) * (6.0 * self.base_size ** 2 / (4.0 * math.pi))
+            self.relative_solid_angle = self.ctx.texture((self.base_size, self.base_size), 1,
+                                                         omega.astype("f4").tobytes(), dtype="f4")
+            self.relative_solid_angle.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        if self.solid_angle_filled != self.filled:
+            self.cube.bind_to_image(0, read=True, write=False, level=0)
+            self.solid_angle_cube.bind_to_image(1, read=False, write=True, level=0)
+            self.relative_solid_angle.use(0)
+            self.solid_angle_prog["solid_angle"] = 0
+            self.solid_angle_prog["size"] = self.base_size
+            self.solid_angle_prog.run(groups(self.base_size), groups(self.base_size), 6)
+            self.ctx.memory_barrier()
+            for level in range(1, self.n_levels):
+                size = self.base_size >> level
+                self.solid_angle_cube.bind_to_image(0, read=True, write=False, level=level - 1)
+                self.solid_angle_cube.bind_to_image(1, read=False, write=True, level=level)
+                self.down_prog["dst_size"] = size
+                self.down_prog.run(groups(size), groups(size), 6)
+                self.ctx.memory_barrier()
+            self.solid_angle_filled = self.filled
+        return self.solid_angle_cube
+
     # -- the glossy lookup (glossy_box.glsl reads env_cube) ----------------------------------
     def lookup_defines(self) -> tuple[str, ...]:
         return ()
@@ -248,24 +293,25 @@ class EnvironmentFilter:
         coeffs = data[48:].reshape(9, 4)[:, :3]
         return coeffs.astype(np.float64), M.astype(np.float64)
 
-    def read_level(self, level: int) -> np.ndarray:
-        """Faces (6, s, s, 3) of one mip level."""
+    def read_level(self, level: int, weighted: bool = False) -> np.ndarray:
+        """Faces (6, s, s, 3) of one mip level; `weighted`: of `solid_angle_chain`'s, (6, s, s, 4) = (rgb w, w)."""
         size = self.base_size >> level
         prog = self.ctx.compute_shader(shader_source("dump_level.comp"))
         out = self.ctx.buffer(reserve=6 * size * size * 16)
-        self.cube.bind_to_image(0, read=True, write=False, level=level)
+        (self.solid_angle_chain() if weighted else self.cube).bind_to_image(0, read=True, write=False, level=level)
         out.bind_to_storage_buffer(3)
         prog["size"] = size
         prog.run(groups(size), groups(size), 6)
         self.ctx.memory_barrier()
-        arr = np.frombuffer(out.read(), dtype="f4").reshape(6, size, size, 4)[..., :3].copy()
+        arr = np.frombuffer(out.read(), dtype="f4").reshape(6, size, size, 4)[..., :4 if weighted else 3].copy()
         out.release()
         prog.release()
         return arr
 
     def release(self) -> None:
         for obj in [self.env_tex, self.texel_uv, self.cube, self.fill_prog, self.down_prog, self.sh_prog,
-                    self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values()]:
+                    self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values(),
+                    self.solid_angle_cube, self.solid_angle_prog, self.relative_solid_angle]:
             if obj is not None:
                 obj.release()
 

@@ -69,7 +69,10 @@ def describe(rt) -> dict:
 #: stores the spread): scenes without glossy surfaces are unchanged
 #: 10: the diffuse cones' ring and weights those that integrate every radiance of spherical-harmonic order <= 2
 #: exactly (vct_math.cone_set: six cones' ring at 49.9 deg, where the seed's was at 60 deg with Voronoi weights)
-MODEL_VERSION = 10
+#: 11: the environment's chain the cones read (the injection's glossy lobe, the deferred glossy read) weighted by
+#: solid angle (gpu.py's EnvironmentFilter.solid_angle_chain), where the paper's box chain weighs a cube face's
+#: corner texels as its centre's: scenes without glossy surfaces are unchanged
+MODEL_VERSION = 11
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

@@ -90,7 +90,7 @@ import moderngl
 import numpy as np
 
 from realtime.engine import limits
-from realtime.engine.gpu import shader_source
+from realtime.engine.gpu import EnvironmentFilter, shader_source
 from realtime.engine.technique import Frame, Technique, set_uniform
 from realtime.techniques.vct import vct_math
 from scenes.model import materials
@@ -494,7 +494,14 @@ class VoxelScene:
         if self.deferred_glossy:
             self.gloss.use(GLOSS_UNIT)
             set_uniform(prog, "vct_gloss", GLOSS_UNIT)
-        if self.env_filter is not None:  # the glossy lobe's chain: the injection's, and the deferred glossy read's
+        if isinstance(self.env_filter, EnvironmentFilter):
+            # the glossy lobe's chain (the injection's, and the deferred glossy read's), weighted by solid angle: its
+            # reads span up to a whole cube face, where the paper's box chain misses the face's mean radiance
+            # (EnvironmentFilter.solid_angle_chain; vct_glossy_env.glsl divides rgb by a)
+            self.env_filter.solid_angle_chain().use(ENV_UNIT)
+            set_uniform(prog, "vct_env_cube", ENV_UNIT)
+            set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
+        elif self.env_filter is not None:  # a 2D store: its own chain (env_map.glsl)
             self.env_filter.bind_lookup(prog, ENV_UNIT, cube_uniform="vct_env_cube")
             set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
         g = self.grid

@@ -15,9 +15,12 @@ vec3 vct_env_lookup(vec3 r, float lod) {
     return env_map_radiance(r, lod);
 }
 #else
+// the cube's chain weighted by solid angle (realtime/engine/gpu.py's EnvironmentFilter.solid_angle_chain): texels
+// (radiance x w, w), so that rgb / a is the mean radiance over the solid angle the lookup blends
 uniform samplerCube vct_env_cube;
 vec3 vct_env_lookup(vec3 r, float lod) {
-    return textureLod(vct_env_cube, r, clamp(lod, 0.0, log2(vct_env_base_size))).rgb;
+    vec4 t = textureLod(vct_env_cube, r, clamp(lod, 0.0, log2(vct_env_base_size)));
+    return t.rgb / max(t.a, 1e-30);
 }
 #endif
 
