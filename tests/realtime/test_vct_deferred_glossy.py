@@ -17,18 +17,19 @@ moment (N' + 1) / (N' + 2) (zonal convolutions multiply first moments; checked b
 The narrow cone's 5 degrees take N = 50 to N' = 45.4 and 500 to 255.
 
 The store's chain stands in for the lobe with a box of texels at the level whose mean texel solid angle is the
-lobe's 2 pi / (N' + 1) (McGuire et al.). A cube texel at a face's centre is 6 / pi times the mean, so a texel's
-angular width a has a^2 <= 12 / (N' + 1); read trilinearly, the box's variance a^2 / 12 and the interpolation's
-tent's a^2 / 6 per axis add a^2 / 2 of angular variance, which shrinks the first moment by a^2 / 4 (to first
-order; the mip-linear blend with the next level blurs a little more). So k is about 1 - 3 / (N' + 1) at the least
-and at most the exact lobe's (N' + 1) / (N' + 2): the band [1 - 3 / (N' + 1) - 0.005, (N' + 1) / (N' + 2) + 0.005]
-([0.930, 0.984] for N = 50, [0.983, 1.001] for N = 500; measured 0.951 / 0.966 / 0.970 on the cube / dual
-paraboloid / sphere map for N = 50, 0.989 / 0.994 / 0.993 for N = 500). So N = 500 tells a lost or wrong exponent
-from the right one (N = 50's k is outside its band), which N = 50's band alone would not, and the band's upper
-end tells a lobe read about the axis alone from the broadened one where the broadening is large: a wide cone
-(25 degrees, N = 500: N' = 18.5, k at most 0.956, measured 0.858) and a plane whose stored spread is set to
-l = 0.99 or 0.97 (stored 0.9896 and 0.9702: N' = 20.2 and 6.3, measured 0.867 and 0.702), where the
-unbroadened lobe reads 0.99. Checked for each of the environment store's parameterizations (the read looks the
+lobe's 2 pi / (N' + 1) (McGuire et al.), read trilinearly: it blurs the lobe, so its k is below the exact lobe's
+(N' + 1) / (N' + 2), by how much depending on where r falls among the texels. (On the cube the chain is weighted by
+solid angle: a texel holds the mean over the solid angle it covers, whose centroid lies nearer the face's centre
+than the texel's centre, where the interpolation puts it; this flattens a linear map's slope. Along these mirrors it
+reads k 0.936 and 0.976 at N' = 45.4 and 255 where the paper's box chain read 0.951 and 0.989, and 0.876 with
+the map turned 37 degrees, where the box chain read 0.930.) So each cone's k is checked against the chain's own
+read of the broadened lobe along the same two mirrors (vct_glossy_env.glsl compiled alone, bound as the cones
+bind it): within 0.002 (measured within 3e-4 everywhere), and below the exact lobe's first moment. What that
+tells apart, each checked: the chain's reads of N = 50's and 500's broadened lobes (0.936 and 0.976 on the cube),
+so a lost or wrong exponent; a lobe read about the axis alone from the broadened one where the broadening is large:
+a wide cone (25 degrees, N = 500: N' = 18.5, k 0.835 where the lobe about the axis reads 0.986) and a plane whose
+stored spread is set to l = 0.99 or 0.97 (stored 0.9896 and 0.9702: N' = 20.2 and 6.3, k 0.844 and 0.696) where the
+unspread lobe reads 0.976. Checked for each of the environment store's parameterizations (the read looks the
 store up through its own uniforms), with the map turned 37 degrees (a swapped, negated or doubly applied turn
 reads another direction), and with a cone wide enough to read the gloss texture's mips 3-4.
 
@@ -56,6 +57,7 @@ import realtime
 import scenes
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
+from realtime.engine.gpu import expand_includes, with_defines
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import directions, envmap
@@ -70,6 +72,10 @@ NARROW = (math.tan(math.radians(5.0)), 0.6)
 #: wide, from higher up: the cone's diameter at the plane is about 10 voxels (levels 3-4)
 WIDE = (math.tan(math.radians(25.0)), 1.2)
 GRID = vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1)
+#: the cones' k against the chain's own read along the same mirrors (measured within 3e-4)
+K_TOLERANCE = 0.002
+#: how far apart the chain's reads of the right and a wrong lobe must be for the check to tell them apart
+APART = 0.01
 
 
 @pytest.fixture(scope="module")
@@ -113,10 +119,52 @@ def cone_reads(vs, dirs: np.ndarray, cone: tuple[float, float]) -> np.ndarray:
     return out[:, :3].mean(axis=1) / out[:, 3]
 
 
+READ_SHADER = """#version 430
+layout(local_size_x = 1) in;
+#include "vct_glossy_env.glsl"
+layout(std430, binding = 0) writeonly buffer Out { vec4 result[]; };
+uniform vec3 direction[2];
+uniform float exponent;
+void main() {
+    for (int k = 0; k < 2; ++k) result[k] = vec4(vct_glossy_env(direction[k], exponent), 0.0);
+}
+"""
+
+
+def chain_reads(vs, env, mirrors: np.ndarray, exponent: float) -> np.ndarray:
+    """The store's chain read directly, as the cones bind it (`VoxelScene.bind_environment`, vct_glossy_env.glsl),
+    along two `mirrors` for a Phong lobe of `exponent`: grey (2,)."""
+    ctx = get_context()
+    prog = ctx.compute_shader(with_defines(expand_includes(READ_SHADER, "realtime.techniques.vct"),
+                                           env.lookup_defines()))
+    out = ctx.buffer(reserve=2 * 16)
+    try:
+        vs.bind_environment(prog, 0)
+        prog["direction"].value = [tuple(float(x) for x in m) for m in mirrors]
+        prog["exponent"].value = float(exponent)
+        out.bind_to_storage_buffer(0)
+        prog.run(1)
+        ctx.finish()
+        return np.frombuffer(out.read(), "f4").reshape(2, 4)[:, :3].mean(axis=1).astype(np.float64)
+    finally:
+        out.release()
+        prog.release()
+
+
+@dataclasses.dataclass(frozen=True)
+class Reading:
+    """The cones' readings ks (1 + k e . r) toward +e_h and -e_h as (constant term / ks, k), and the k of the
+    store's chain read directly along the same mirrors for each exponent asked for."""
+    constant: float
+    k: float
+    chain_k: dict[float, float]
+
+
 def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: bool,
-                   cone: tuple[float, float], mean_length: float | None = None) -> tuple[float, float]:
-    """The readings ks (1 + k e . r) of the cones tilted toward +e_h and -e_h, as (constant term / ks, k); with
-    `mean_length`, every face normal's stored spread set to it (level 0, then the mips) before the reads."""
+                   cone: tuple[float, float], mean_length: float | None = None,
+                   chain_exponents: tuple[float, ...] = ()) -> Reading:
+    """The cones tilted toward +e_h and -e_h read the plane (with `mean_length`, every face normal's stored spread
+    set to it, level 0, then the mips, before the reads); the chain read directly at each of `chain_exponents`."""
     vs, env, e = voxels({"environment.map": linear_sky, **overrides}, exponent, deferred)
     if mean_length is not None:
         normals = vs.read_normals(0)
@@ -125,71 +173,88 @@ def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: 
     h = np.array([e[0], 0.0, e[2]])
     s, c = math.sin(math.radians(TILT_DEG)), math.cos(math.radians(TILT_DEG))
     toward = h / np.linalg.norm(h)
-    dirs = np.array([s * toward - c * np.array([0.0, 1.0, 0.0]), -s * toward - c * np.array([0.0, 1.0, 0.0])])
+    up = np.array([0.0, 1.0, 0.0])
+    dirs = np.array([s * toward - c * up, -s * toward - c * up])
     got = cone_reads(vs, dirs, cone)  # mirror directions r = (+-s toward, c)
+    mirrors = dirs * np.array([1.0, -1.0, 1.0])
+    scale = 2.0 * s * np.linalg.norm(h)
+    chain_k = {}
+    for n in chain_exponents:
+        read = chain_reads(vs, env, mirrors, n)
+        chain_k[n] = float((read[0] - read[1]) / scale)
     vs.release()
     env.release()
-    return float(got.mean() / KS), float((got[0] - got[1]) / (2.0 * KS * s * np.linalg.norm(h)))
+    return Reading(float(got.mean() / KS), float((got[0] - got[1]) / (KS * scale)), chain_k)
 
 
-def k_band(exponent: float, cone: tuple[float, float], mean_length: float = 1.0) -> tuple[float, float]:
-    """The first moment k of what the cone reads: the lobe broadened by the cone's aperture and the normals'
-    spread, N' = vct_math.broadened_exponent(N, cap_mean_cos(tan a) (2 l^2 - 1)), whose exact first moment is
-    mu' = (N' + 1) / (N' + 2); the chain stands in for it with k in [1 - 3 / (N' + 1), mu'] (the module's
-    docstring), widened by 0.005."""
+def broadened(exponent: float, cone: tuple[float, float], mean_length: float = 1.0) -> float:
+    """N' = vct_math.broadened_exponent(N, cap_mean_cos(tan a) (2 l^2 - 1)): the lobe a cone of `cone`'s aperture
+    reads off normals of mean cosine `mean_length`, whose exact first moment is (N' + 1) / (N' + 2)."""
     spread = vct_math.cap_mean_cos(cone[0]) * vct_math.reflection_spread_mean_cos(mean_length)
-    broadened = vct_math.broadened_exponent(exponent, spread)
-    return 1.0 - 3.0 / (broadened + 1.0) - 0.005, (broadened + 1.0) / (broadened + 2.0) + 0.005
+    return vct_math.broadened_exponent(exponent, spread)
+
+
+def exact_k(exponent: float) -> float:
+    """The normalised Phong lobe's first moment (N + 1) / (N + 2): what the chain's box of texels can only blur."""
+    return (exponent + 1.0) / (exponent + 2.0)
 
 
 @pytest.mark.parametrize("parameterization", ["cube", "dual_paraboloid", "sphere_map"])
 @pytest.mark.parametrize("exponent", [50.0, 500.0])
 def test_a_cone_gathers_the_glossy_reflection_toward_itself(linear_sky, parameterization, exponent):
-    constant, k = constant_and_k(linear_sky, {"realtime.parameterization": parameterization}, exponent, True,
-                                 NARROW)
-    low, high = k_band(exponent, NARROW)
-    assert constant == pytest.approx(1.0, rel=0.01)
-    assert low < k < high, (k, low, high)
+    """k is the chain's own read of the broadened lobe along the cone's mirror direction, below the exact lobe's
+    first moment; N = 500 read with N = 50's lobe would be told apart."""
+    right, wrong = broadened(exponent, NARROW), broadened(50.0 if exponent == 500.0 else 500.0, NARROW)
+    r = constant_and_k(linear_sky, {"realtime.parameterization": parameterization}, exponent, True, NARROW,
+                       chain_exponents=(right, wrong))
+    assert r.constant == pytest.approx(1.0, rel=0.01)
+    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert r.k < exact_k(right) + K_TOLERANCE
+    assert abs(r.chain_k[wrong] - r.chain_k[right]) > APART  # the exponents' reads are apart
 
 
 @pytest.mark.parametrize("cone", [NARROW, WIDE], ids=["narrow", "wide"])
 def test_the_read_looks_up_the_world_direction_of_a_turned_environment(linear_sky, cone):
-    constant, k = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone)
-    low, high = k_band(50.0, cone)
-    assert constant == pytest.approx(1.0, rel=0.01)
-    assert low < k < high, (k, low, high)
+    right = broadened(50.0, cone)
+    r = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone, chain_exponents=(right,))
+    assert r.constant == pytest.approx(1.0, rel=0.01)
+    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert r.k < exact_k(right) + K_TOLERANCE
 
 
 def test_a_wide_cone_reads_the_lobe_broadened_by_its_aperture(linear_sky):
-    """A cone of 25 degrees reading an N = 500 plane gathers the lobe's mean over the cone's directions: k in the
-    band of N' = broadened_exponent(500, (1 + cos 25 deg) / 2) = 18.5, at most its first moment 0.951 (the lobe
-    about the axis alone reads 0.99, outside it)."""
-    constant, k = constant_and_k(linear_sky, {}, 500.0, True, WIDE)
-    low, high = k_band(500.0, WIDE)
-    assert high < 0.96
-    assert constant == pytest.approx(1.0, rel=0.01)
-    assert low < k < high, (k, low, high)
+    """A cone of 25 degrees reading an N = 500 plane gathers the lobe's mean over the cone's directions, N' =
+    broadened_exponent(500, (1 + cos 25 deg) / 2) = 18.5, first moment at most 0.951; the chain's read of the lobe
+    about the axis alone (N = 500) is far above it."""
+    right = broadened(500.0, WIDE)
+    r = constant_and_k(linear_sky, {}, 500.0, True, WIDE, chain_exponents=(right, 500.0))
+    assert exact_k(right) < 0.96
+    assert r.constant == pytest.approx(1.0, rel=0.01)
+    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert r.chain_k[500.0] > r.k + APART
 
 
 @pytest.mark.parametrize("mean_length", [1.0, 0.99, 0.97])
 def test_spread_normals_broaden_the_lobe_they_reflect(linear_sky, mean_length):
     """The plane's stored spread set to l (its faces then stand for normals of mean cosine l; stored as the byte
     round(255 sqrt(1 - l)): 0.98960 and 0.97023 for 0.99 and 0.97): the read takes the mirrors' spread, mean
-    cosine 2 l^2 - 1 (0.959, 0.883), so k falls into the band of N' = broadened_exponent(500, 0.998 (2 l^2 - 1))
-    (N' = 20.2, 6.3), at most 0.955 and 0.879. Control: l = 1 written the same way reads N = 500's band."""
-    constant, k = constant_and_k(linear_sky, {}, 500.0, True, NARROW, mean_length)
+    cosine 2 l^2 - 1 (0.959, 0.883), so k is the chain's read at N' = broadened_exponent(500, 0.998 (2 l^2 - 1))
+    (N' = 20.2, 6.3), first moment at most 0.955 and 0.879. Control: l = 1 written the same way reads N = 500's
+    broadened lobe (N' = 255), and the spread normals' k is far below that lobe's read."""
     stored = 1.0 - (round(255.0 * math.sqrt(1.0 - mean_length)) / 255.0) ** 2
-    low, high = k_band(500.0, NARROW, stored)
-    assert constant == pytest.approx(1.0, rel=0.01)
-    assert low < k < high, (k, low, high)
+    right, unspread = broadened(500.0, NARROW, stored), broadened(500.0, NARROW)
+    r = constant_and_k(linear_sky, {}, 500.0, True, NARROW, mean_length, chain_exponents=(right, unspread))
+    assert r.constant == pytest.approx(1.0, rel=0.01)
+    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert r.k < exact_k(right) + K_TOLERANCE
     if mean_length < 1.0:
-        assert high < 0.97 < k_band(500.0, NARROW)[0]  # the bands of spread and unspread normals are apart
+        assert r.chain_k[unspread] > r.k + APART
 
 
 def test_control_the_six_face_storage_reads_the_stored_direction_both_ways(linear_sky):
-    constant, k = constant_and_k(linear_sky, {}, 50.0, False, NARROW)
-    assert constant == pytest.approx(1.0, rel=0.01)  # ks L_g(+y), stored in the +Y face
-    assert abs(k) < 0.05
+    r = constant_and_k(linear_sky, {}, 50.0, False, NARROW)
+    assert r.constant == pytest.approx(1.0, rel=0.01)  # ks L_g(+y), stored in the +Y face
+    assert abs(r.k) < 0.05
 
 
 @pytest.mark.parametrize("deferred", [True, False], ids=["deferred", "six-faces-control"])

@@ -225,13 +225,23 @@ def test_glossy_bounce_reflects_the_wall_it_faces(ctx):
 CHAIN_BASE, CHAIN_EXPONENT, CHAIN_LEVEL = 64, 191.0, 3
 
 
+def central_mean(env, face: int, level: int) -> np.ndarray:
+    """The mean radiance (3,) of cube `face`'s four central texels at `level` of the chain the cones read, weighted
+    by solid angle (EnvironmentFilter.solid_angle_chain: texels (rgb w, w)), as a trilinear lookup at their common
+    corner blends them."""
+    s = CHAIN_BASE >> level
+    t = env.read_level(level, weighted=True)[face, s // 2 - 1:s // 2 + 1, s // 2 - 1:s // 2 + 1].reshape(-1, 4)
+    return t[:, :3].sum(axis=0) / t[:, 3].sum()
+
+
 def test_frame_injection_reads_the_lobe_level_of_the_environment_chain(ctx):
     """A horizontal Phong plane (N = 191) alone under a sky whose sun stands at the zenith, the environment
     store (base 64) passed as the frame passes it: the upper face (r = +y, open sky) holds ks times the
     chain's radiance at +y at level 3 (the level whose texel covers the lobe's 2 pi / (N + 1) sr): +y is
-    the corner of the +Y face's four central texels, so the trilinear lookup is their mean, read back here
-    from the chain; within 1 %. Controls: the same mean at levels 2 and 4, and the SH9 rule (the lobe
-    convolved in SH9), differ from it by more than 10 %."""
+    the corner of the +Y face's four central texels, so the trilinear lookup is their mean (weighted by
+    solid angle, as the cones' chain holds them), read back here from the chain; within 1 %. Controls: the
+    same mean at levels 2 and 4, and the SH9 rule (the lobe convolved in SH9), differ from it by more
+    than 10 %."""
 
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({
         "environment.map": "builtin:sky", "environment.params.sun_elevation_deg": 90.0,
@@ -249,12 +259,8 @@ def test_frame_injection_reads_the_lobe_level_of_the_environment_chain(ctx):
     up = vs.read_faces(0)[FACE_PY, 0, 8:24, 15, 8:24].reshape(-1, 4)
     got = up[:, :3] / up[:, 3:4] / KS
 
-    def centre(level: int) -> np.ndarray:
-        s = CHAIN_BASE >> level
-        return env.read_level(level)[2, s // 2 - 1:s // 2 + 1, s // 2 - 1:s // 2 + 1].reshape(-1, 3).mean(axis=0)
-
-    want = centre(CHAIN_LEVEL)
-    others = [centre(CHAIN_LEVEL - 1), centre(CHAIN_LEVEL + 1)]
+    want = central_mean(env, 2, CHAIN_LEVEL)
+    others = [central_mean(env, 2, CHAIN_LEVEL - 1), central_mean(env, 2, CHAIN_LEVEL + 1)]
     coeffs, _ = env.read_sh()
     lam = np.repeat([1.0, (CHAIN_EXPONENT + 1) / (CHAIN_EXPONENT + 2), CHAIN_EXPONENT / (CHAIN_EXPONENT + 3)],
                     [1, 3, 5])
@@ -292,8 +298,7 @@ def test_frame_injection_looks_up_the_world_direction_in_a_turned_environment(ct
     got = east[:, :3] / east[:, 3:4] / KS
 
     def centre(face: int) -> np.ndarray:
-        s = CHAIN_BASE >> CHAIN_LEVEL
-        return env.read_level(CHAIN_LEVEL)[face, s // 2 - 1:s // 2 + 1, s // 2 - 1:s // 2 + 1].reshape(-1, 3).mean(0)
+        return central_mean(env, face, CHAIN_LEVEL)
 
     want = centre(0)
     others = [centre(1), centre(4), centre(5)]

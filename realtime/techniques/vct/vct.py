@@ -274,8 +274,10 @@ class VoxelScene:
         self.mip_levels = self.grid.levels
         here = __package__
         refl = [reflectance_of(o.material) for o in objects]
+        #: whether a shader reads the environment's chain: only a glossy surface's lobe does
+        self.reads_environment = env_filter is not None and has_glossy(refl)
         if deferred_glossy is None:
-            deferred_glossy = env_filter is not None and has_glossy(refl)
+            deferred_glossy = self.reads_environment
         if deferred_glossy and env_filter is None:
             raise ValueError("the deferred glossy read needs the frame's environment store (env_filter)")
         self.gloss = None  # the deferred glossy read's texture (deferred_glossy: whether there is one)
@@ -494,16 +496,8 @@ class VoxelScene:
         if self.deferred_glossy:
             self.gloss.use(GLOSS_UNIT)
             set_uniform(prog, "vct_gloss", GLOSS_UNIT)
-        if isinstance(self.env_filter, EnvironmentFilter):
-            # the glossy lobe's chain (the injection's, and the deferred glossy read's), weighted by solid angle: its
-            # reads span up to a whole cube face, where the paper's box chain misses the face's mean radiance
-            # (EnvironmentFilter.solid_angle_chain; vct_glossy_env.glsl divides rgb by a)
-            self.env_filter.solid_angle_chain().use(ENV_UNIT)
-            set_uniform(prog, "vct_env_cube", ENV_UNIT)
-            set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
-        elif self.env_filter is not None:  # a 2D store: its own chain (env_map.glsl)
-            self.env_filter.bind_lookup(prog, ENV_UNIT, cube_uniform="vct_env_cube")
-            set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
+        if self.env_filter is not None:
+            self.bind_environment(prog)
         g = self.grid
         set_uniform(prog, "vct_centre", g.centre)
         set_uniform(prog, "vct_half_extent", g.half_extent)
@@ -527,6 +521,19 @@ class VoxelScene:
         if "vct_cone_weight" in prog:
             prog["vct_cone_weight"].write(weights.tobytes())
         set_uniform(prog, "vct_cone_tan", math.tan(cones.half_angle))
+
+    def bind_environment(self, prog, unit: int = ENV_UNIT) -> None:
+        """The environment's chain that vct_glossy_env.glsl reads (the injection's glossy lobe, the deferred glossy
+        read), on `unit`: on the cube, the chain weighted by solid angle (EnvironmentFilter.solid_angle_chain;
+        the read divides rgb by a), since these reads span up to a whole face, where the paper's box chain misses
+        the face's mean radiance; a 2D store's own chain (env_map.glsl). A scene without a glossy surface reads
+        none: the paper's cube is bound to the sampler as it stands, and the weighted chain is not built."""
+        if isinstance(self.env_filter, EnvironmentFilter) and self.reads_environment:
+            self.env_filter.solid_angle_chain().use(unit)
+            set_uniform(prog, "vct_env_cube", unit)
+        else:
+            self.env_filter.bind_lookup(prog, unit, cube_uniform="vct_env_cube")
+        set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
 
     # -- read-backs (tests, measurements) -------------------------------------------------------
     def occupied(self, cascade: int = 0) -> np.ndarray:

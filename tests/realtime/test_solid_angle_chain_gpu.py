@@ -1,0 +1,134 @@
+"""The cube chain weighted by solid angle (EnvironmentFilter.solid_angle_chain), which voxel cone tracing reads.
+
+The map: radiance 1 everywhere but a cap of 20 degrees about one axis, at 11. The cap lies inside the cube face
+about that axis (whose edges are 45 degrees from its centre), so that face's mean radiance over its solid angle is
+1 + 10 Omega_cap / Omega_face = 1 + 30 (1 - cos 20 deg) = 2.809, each other face's 1, and the whole sphere's
+1 + 5 (1 - cos 20 deg). The paper's 2x2 box chain weighs the face's texels alike, so its 1x1 level holds
+1 + 10 times the share of the face's texels inside the cap, about pi tan^2(20 deg) / 4 of the face's area
+(the cap's gnomonic disc): 2.04, the negative control.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from realtime.engine.context import get_context
+from realtime.engine.gpu import EnvironmentFilter, expand_includes
+from scenes.environment import cubemap
+from scenes.environment.directions import equirect_directions
+
+pytestmark = pytest.mark.gl
+
+BASE = 128
+CAP_COS = math.cos(math.radians(20.0))
+FACE_MEAN = 1.0 + 30.0 * (1.0 - CAP_COS)  # 2.809
+BOX_MEAN = 1.0 + 10.0 * math.pi * math.tan(math.radians(20.0)) ** 2 / 4.0  # 2.041
+SPHERE_MEAN = 1.0 + 5.0 * (1.0 - CAP_COS)
+
+
+def cap_map(axis: tuple[float, float, float], height: int = 512) -> np.ndarray:
+    """The equirect map (H, 2H, 3): 11 within 20 degrees of `axis`, else 1."""
+    d = equirect_directions(height, 2 * height)
+    inside = d @ np.asarray(axis, dtype=np.float64) > CAP_COS
+    return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
+
+
+def face_of(direction: tuple[float, float, float]) -> int:
+    return int(cubemap.direction_to_face(np.asarray([direction], dtype=np.float64))[0][0])
+
+
+def level_means(f: EnvironmentFilter, level: int) -> np.ndarray:
+    """Per face, the weighted chain's mean radiance of the level's texels, each weighted by its solid angle: (6,)."""
+    t = f.read_level(level, weighted=True)
+    radiance = t[..., :3].mean(-1) / t[..., 3]
+    omega = cubemap.texel_solid_angles(BASE >> level)
+    return (radiance * omega).sum((1, 2)) / omega.sum()
+
+
+@pytest.fixture(scope="module")
+def zenith_cap():
+    f = EnvironmentFilter(get_context(), cap_map((0.0, 1.0, 0.0)), BASE)
+    f.fill_base(0.0)
+    f.build_chain()
+    yield f
+    f.release()
+
+
+@pytest.mark.parametrize("level", [0, 3, 5, 6, 7])
+def test_every_level_keeps_each_faces_mean_radiance(zenith_cap, level):
+    up = face_of((0.0, 1.0, 0.0))
+    means = level_means(zenith_cap, level)
+    assert means[up] == pytest.approx(FACE_MEAN, rel=0.01)
+    assert np.delete(means, up) == pytest.approx(np.ones(5), abs=1e-6)
+    omega = 4.0 * math.pi / 6.0
+    assert means.sum() * omega / (4.0 * math.pi) == pytest.approx(SPHERE_MEAN, rel=0.01)
+
+
+def test_the_coarsest_texel_is_the_faces_mean_where_the_box_chains_is_not(zenith_cap):
+    up = face_of((0.0, 1.0, 0.0))
+    top = int(math.log2(BASE))
+    t = zenith_cap.read_level(top, weighted=True)[up, 0, 0]
+    assert t[0] / t[3] == pytest.approx(FACE_MEAN, rel=0.01)
+    assert t[3] == pytest.approx(1.0, rel=1e-5)  # the face's mean solid angle over the mean texel's
+    # control: the paper's box chain at the same level
+    assert zenith_cap.read_level(top)[up, 0, 0, 0] == pytest.approx(BOX_MEAN, rel=0.01)
+
+
+def test_the_chain_follows_each_fill():
+    f = EnvironmentFilter(get_context(), cap_map((1.0, 0.0, 0.0)), BASE)
+    try:
+        top = int(math.log2(BASE))
+        f.fill_base(0.0)
+        before = level_means(f, top)
+        f.fill_base(90.0)  # a quarter turn about +y takes the cap off the +x face
+        after = level_means(f, top)
+    finally:
+        f.release()
+    x = face_of((1.0, 0.0, 0.0))
+    assert before[x] == pytest.approx(FACE_MEAN, rel=0.01)
+    assert after[x] == pytest.approx(1.0, abs=1e-6)
+    z = max(after[face_of((0.0, 0.0, 1.0))], after[face_of((0.0, 0.0, -1.0))])  # whichever way the turn goes
+    assert z == pytest.approx(FACE_MEAN, rel=0.01)
+
+
+READ_SHADER = """#version 430
+layout(local_size_x = 1) in;
+#include "vct_glossy_env.glsl"
+layout(std430, binding = 0) writeonly buffer Out { vec4 result[]; };
+uniform vec3 direction[3];
+uniform float exponent[3];
+void main() {
+    for (int k = 0; k < 3; ++k) result[k] = vec4(vct_glossy_env(direction[k], exponent[k]), 0.0);
+}
+"""
+
+
+def test_the_cones_environment_read_divides_out_the_weight(zenith_cap):
+    """vct_glossy_env.glsl as voxel cone tracing binds it: a lobe as wide as a hemisphere (N = 0, the level clamped
+    to the 1x1 faces) along +y reads the +y face's mean, along +x radiance 1; a sharp lobe (N = 1e6, level 0)
+    toward a cube corner, where a base texel's weight is 0.19 of the mean texel's, reads radiance 1 too (the read
+    divides the weight out). Control: the paper's chain bound in its place reads its box mean."""
+    ctx = get_context()
+    prog = ctx.compute_shader(expand_includes(READ_SHADER, "realtime.techniques.vct"))
+    out = ctx.buffer(reserve=3 * 16)
+    corner = 1.0 / math.sqrt(3.0)
+    try:
+        prog["direction"].value = [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (corner, corner, corner)]
+        prog["exponent"].value = [0.0, 0.0, 1e6]
+        prog["vct_env_base_size"] = float(BASE)
+        prog["vct_env_cube"] = 0
+        out.bind_to_storage_buffer(0)
+        reads = {}
+        for name, cube in (("weighted", zenith_cap.solid_angle_chain()), ("box", zenith_cap.cube)):
+            cube.use(0)
+            prog.run(1)
+            ctx.finish()
+            reads[name] = np.frombuffer(out.read(), "f4").reshape(3, 4)[:, 0]
+    finally:
+        out.release()
+        prog.release()
+    assert reads["weighted"] == pytest.approx([FACE_MEAN, 1.0, 1.0], rel=0.01)
+    assert reads["box"][0] == pytest.approx(BOX_MEAN, rel=0.01)  # the box chain's alpha is 1: read as it is
