@@ -334,6 +334,9 @@ class VoxelScene:
         ctx = self.ctx
         mip_ms = 0.0
         R = self.resolution
+        if self.reads_environment and isinstance(self.env_filter, EnvironmentFilter):
+            # the chain the glossy reads take, refreshed here (counted in `voxelize`) rather than inside a bind
+            self.env_filter.solid_angle_chain()
         self.voxelize()
         for c in range(self.count):
             self.write_normals(c)

@@ -1,6 +1,7 @@
 // L_g(r): the environment convolved with the normalised Phong lobe of exponent N about r, read from the frame's
-// environment store (the cube, or a 2D parameterization through env_map.glsl): its 2x2-box mip chain read at
-// the level whose texel covers the lobe's solid angle (McGuire et al. 2013, realtime.engine.levels.mcguire_offset).
+// environment store (the cube's chain weighted by solid angle, or a 2D parameterization's own chain through
+// env_map.glsl) at the level whose texel covers the lobe's solid angle (McGuire et al. 2013,
+// realtime.engine.levels.mcguire_offset).
 // The lobe's normalisation (N + 1) / (2 pi) makes it worth 2 pi / (N + 1) sr, a cube texel at level l covers
 // about 4 pi / (6 (base / 2^l)^2), so l = log2(base sqrt(3)) - 0.5 log2(N + 1). The injection reads it for the
 // glossy lobe it stores (vct_inject.comp); the deferred glossy read (VCT_GLOSS_READ, vct_trace.glsl) reads
