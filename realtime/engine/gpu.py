@@ -192,11 +192,14 @@ class EnvironmentFilter:
 
     def build_chain(self, down_to_level: int | None = None) -> None:
         """2x2 box-filter levels 1 .. down_to_level (default: down to 1x1)."""
-        last = self.n_levels - 1 if down_to_level is None else down_to_level
+        self._box_chain(self.cube, self.n_levels - 1 if down_to_level is None else down_to_level)
+
+    def _box_chain(self, cube: moderngl.TextureCube, last: int) -> None:
+        """Levels 1 .. last of `cube`, each texel the mean of a 2x2 block of the level below (downsample.comp)."""
         for level in range(1, last + 1):
             size = self.base_size >> level
-            self.cube.bind_to_image(0, read=True, write=False, level=level - 1)
-            self.cube.bind_to_image(1, read=False, write=True, level=level)
+            cube.bind_to_image(0, read=True, write=False, level=level - 1)
+            cube.bind_to_image(1, read=False, write=True, level=level)
             self.down_prog["dst_size"] = size
             self.down_prog.run(groups(size), groups(size), 6)
             self.ctx.memory_barrier()
@@ -262,13 +265,7 @@ class EnvironmentFilter:
             self.solid_angle_prog["size"] = self.base_size
             self.solid_angle_prog.run(groups(self.base_size), groups(self.base_size), 6)
             self.ctx.memory_barrier()
-            for level in range(1, self.n_levels):
-                size = self.base_size >> level
-                self.solid_angle_cube.bind_to_image(0, read=True, write=False, level=level - 1)
-                self.solid_angle_cube.bind_to_image(1, read=False, write=True, level=level)
-                self.down_prog["dst_size"] = size
-                self.down_prog.run(groups(size), groups(size), 6)
-                self.ctx.memory_barrier()
+            self._box_chain(self.solid_angle_cube, self.n_levels - 1)
             self.solid_angle_filled = self.filled
         return self.solid_angle_cube
 
