@@ -182,7 +182,6 @@ class EnvironmentFilter:
         self.solid_angle_cube: moderngl.TextureCube | None = None  # solid_angle_chain's cube, made on first use
         self.solid_angle_filled = -1
         self.solid_angle_prog: moderngl.ComputeShader | None = None
-        self.relative_solid_angle: moderngl.Texture | None = None
 
     # -- per-frame work --------------------------------------------------------------------
     def fill_base(self, rotation_deg: float) -> None:
@@ -216,14 +215,8 @@ class EnvironmentFilter:
         partial = self._partials.get(face_size)
         if partial is None:
             partial = self._partials[face_size] = self.ctx.buffer(reserve=n_groups * 9 * 16)
-        tex = self._solid_angle.get(face_size)
-        if tex is None:
-            omega = cubemap.texel_solid_angles(face_size).astype("f4")
-            tex = self.ctx.texture((face_size, face_size), 1, omega.tobytes(), dtype="f4")
-            self._solid_angle[face_size] = tex
-            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.cube.bind_to_image(0, read=True, write=False, level=level)
-        tex.use(1)
+        self._solid_angle_texture(face_size).use(1)
         self.sh_prog["solid_angle"] = 1
         self.sh_prog["size"] = face_size
         self.sh_prog["block"] = block
@@ -236,10 +229,20 @@ class EnvironmentFilter:
         self.reduce_prog.run(1, 1, 1)
         self.ctx.memory_barrier()
 
+    def _solid_angle_texture(self, size: int) -> moderngl.Texture:
+        """Each texel's exact solid angle on a face of `size` texels (all six alike; R32F), made once per size."""
+        tex = self._solid_angle.get(size)
+        if tex is None:
+            omega = cubemap.texel_solid_angles(size).astype("f4")
+            tex = self._solid_angle[size] = self.ctx.texture((size, size), 1, omega.tobytes(), dtype="f4")
+            tex.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        return tex
+
     def solid_angle_chain(self) -> moderngl.TextureCube:
         """The cube's chain weighted by solid angle, for reads that must keep the environment's mean radiance over
-        wide regions (voxel cone tracing's): texels (rgb w, w), w each base texel's solid angle over the mean
-        texel's, box-filtered as the paper's chain is; a read's rgb / a is the solid-angle-weighted mean.
+        wide regions (voxel cone tracing's): texels (rgb w, w), w each base texel's solid angle, box-filtered as
+        the paper's chain is (a level's alpha is then its texels' mean solid angle per base texel); a read's
+        rgb / a is the solid-angle-weighted mean.
 
         Why: a texel of level L should hold the mean radiance over the solid angle it covers,
         sum_c L_c Omega_c / sum_c Omega_c over its base texels c. The paper's 2x2 box mean is that only where the
@@ -253,14 +256,10 @@ class EnvironmentFilter:
             limits.check_created(self.ctx, "realtime.base_size", "the solid-angle-weighted cube chain")
             self.solid_angle_cube.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
             self.solid_angle_prog = self.ctx.compute_shader(shader_source("solid_angle_weight.comp"))
-            omega = cubemap.texel_solid_angles(self.base_size) * (6.0 * self.base_size ** 2 / (4.0 * math.pi))
-            self.relative_solid_angle = self.ctx.texture((self.base_size, self.base_size), 1,
-                                                         omega.astype("f4").tobytes(), dtype="f4")
-            self.relative_solid_angle.filter = (moderngl.NEAREST, moderngl.NEAREST)
         if self.solid_angle_filled != self.filled:
             self.cube.bind_to_image(0, read=True, write=False, level=0)
             self.solid_angle_cube.bind_to_image(1, read=False, write=True, level=0)
-            self.relative_solid_angle.use(0)
+            self._solid_angle_texture(self.base_size).use(0)
             self.solid_angle_prog["solid_angle"] = 0
             self.solid_angle_prog["size"] = self.base_size
             self.solid_angle_prog.run(groups(self.base_size), groups(self.base_size), 6)
@@ -308,7 +307,7 @@ class EnvironmentFilter:
     def release(self) -> None:
         for obj in [self.env_tex, self.texel_uv, self.cube, self.fill_prog, self.down_prog, self.sh_prog,
                     self.reduce_prog, self.sh_buffer, *self._solid_angle.values(), *self._partials.values(),
-                    self.solid_angle_cube, self.solid_angle_prog, self.relative_solid_angle]:
+                    self.solid_angle_cube, self.solid_angle_prog]:
             if obj is not None:
                 obj.release()
 

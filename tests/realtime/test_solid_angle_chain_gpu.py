@@ -19,7 +19,7 @@ import pytest
 
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.gpu import EnvironmentFilter, expand_includes
+from realtime.engine.gpu import EnvironmentFilter
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import cubemap
 from scenes.environment.directions import equirect_directions
@@ -73,7 +73,7 @@ def test_the_coarsest_texel_is_the_faces_mean_where_the_box_chains_is_not(zenith
     top = int(math.log2(BASE))
     t = zenith_cap.read_level(top, weighted=True)[up, 0, 0]
     assert t[0] / t[3] == pytest.approx(FACE_MEAN, rel=0.01)
-    assert t[3] == pytest.approx(1.0, rel=1e-5)  # the face's mean solid angle over the mean texel's
+    assert t[3] == pytest.approx(4.0 * math.pi / 6.0 / BASE ** 2, rel=1e-5)  # the face's per base texel
     # control: the paper's box chain at the same level
     assert zenith_cap.read_level(top)[up, 0, 0, 0] == pytest.approx(BOX_MEAN, rel=0.01)
 
@@ -95,69 +95,21 @@ def test_the_chain_follows_each_fill():
     assert z == pytest.approx(FACE_MEAN, rel=0.01)
 
 
-READ_SHADER = """#version 430
-layout(local_size_x = 1) in;
-#include "vct_glossy_env.glsl"
-layout(std430, binding = 0) writeonly buffer Out { vec4 result[]; };
-uniform vec3 direction[3];
-uniform float exponent[3];
-void main() {
-    for (int k = 0; k < 3; ++k) result[k] = vec4(vct_glossy_env(direction[k], exponent[k]), 0.0);
-}
-"""
-
-
-def test_the_cones_environment_read_divides_out_the_weight(zenith_cap):
-    """vct_glossy_env.glsl as voxel cone tracing binds it: a lobe as wide as a hemisphere (N = 0, the level clamped
-    to the 1x1 faces) along +y reads the +y face's mean, along +x radiance 1; a sharp lobe (N = 1e6, level 0)
-    toward a cube corner, where a base texel's weight is 0.37 of the mean texel's, reads radiance 1 too (the read
-    divides the weight out). Control: the paper's chain bound in its place reads its box mean."""
-    prog = get_context().compute_shader(expand_includes(READ_SHADER, "realtime.techniques.vct"))
-    try:
-        weighted = environment_reads(prog, lambda p, unit: bind_cube(p, unit, zenith_cap.solid_angle_chain()))
-        box = environment_reads(prog, lambda p, unit: bind_cube(p, unit, zenith_cap.cube))
-    finally:
-        prog.release()
-    assert weighted == pytest.approx([FACE_MEAN, 1.0, 1.0], rel=0.01)
-    assert box[0] == pytest.approx(BOX_MEAN, rel=0.01)  # the box chain's alpha is 1: read as it is
-
-
-def bind_cube(prog, unit: int, cube) -> None:
-    cube.use(unit)
-    prog["vct_env_cube"] = unit
-
-
-def environment_reads(prog, bind) -> np.ndarray:
-    """READ_SHADER's three reads (grey) with the chain bound by `bind(prog, unit 0)`: along +y and +x at N = 0, at a
-    cube corner at N = 1e6."""
-    ctx = get_context()
-    out = ctx.buffer(reserve=3 * 16)
-    corner = 1.0 / math.sqrt(3.0)
-    try:
-        prog["direction"].value = [(0.0, 1.0, 0.0), (1.0, 0.0, 0.0), (corner, corner, corner)]
-        prog["exponent"].value = [0.0, 0.0, 1e6]
-        prog["vct_env_base_size"] = float(BASE)
-        bind(prog, 0)
-        out.bind_to_storage_buffer(0)
-        prog.run(1)
-        ctx.finish()
-        return np.frombuffer(out.read(), "f4").reshape(3, 4)[:, 0].astype(np.float64)
-    finally:
-        out.release()
-
-
 @pytest.mark.parametrize("glossy", [True, False], ids=["glossy", "diffuse"])
 def test_a_voxel_scene_binds_the_weighted_chain_where_a_glossy_surface_reads_it(glossy):
-    """A plane voxelised under the zenith cap, the store passed as a frame passes it: with a Phong plane the
-    cones' environment read (VoxelScene.bind_environment) is the weighted chain's (+y at N = 0: the face's mean,
-    2.809); with a diffuse plane nothing reads the environment, the weighted chain is never built, and the
-    sampler holds the paper's cube (2.04)."""
+    """A plane voxelised under the zenith cap, the store passed as a frame passes it, the chain read as the cones
+    read it (VoxelScene.read_environment: vct_glossy_env.glsl through bind_environment). With a Phong plane it is
+    the weighted chain: a lobe as wide as a hemisphere (N = 0, the level clamped to the 1x1 faces) along +y reads
+    the +y face's mean, 2.809, along +x 1; a sharp lobe (N = 1e6, level 0) toward a cube corner, where a base
+    texel covers 0.37 of the mean texel's solid angle, reads 1 (the read divides the weight out). With a diffuse
+    plane nothing reads the environment, the weighted chain is never built, and the sampler holds the paper's
+    cube: +y reads its box mean, 2.04 (the control)."""
     ctx = get_context()
     f = EnvironmentFilter(ctx, cap_map((0.0, 1.0, 0.0)), BASE)
     plane = scenes.load("builtin:sphere-on-plane").objects[1]
     material = (dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, exponent=50.0)
                 if glossy else plane.material)
-    prog = ctx.compute_shader(expand_includes(READ_SHADER, "realtime.techniques.vct"))
+    corner = 1.0 / math.sqrt(3.0)
     vs = None
     try:
         f.fill_base(0.0)
@@ -165,12 +117,12 @@ def test_a_voxel_scene_binds_the_weighted_chain_where_a_glossy_surface_reads_it(
         f.project_sh(64)
         vs = VoxelScene(ctx, [SimpleNamespace(mesh=plane.mesh, material=material)], 16, 1, 6, 0.5, env_filter=f)
         vs.update(None, f.sh_buffer)
-        reads = environment_reads(prog, vs.bind_environment)
+        reads = vs.read_environment(np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [corner, corner, corner]]),
+                                    np.array([0.0, 0.0, 1e6]))[:, 0]
         built = f.solid_angle_cube is not None
     finally:
         if vs is not None:
             vs.release()
-        prog.release()
         f.release()
     assert built == glossy
     if glossy:

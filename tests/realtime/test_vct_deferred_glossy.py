@@ -23,8 +23,8 @@ solid angle: a texel holds the mean over the solid angle it covers, whose centro
 than the texel's centre, where the interpolation puts it; this flattens a linear map's slope. Along these mirrors it
 reads k 0.936 and 0.976 at N' = 45.4 and 255 where the paper's box chain read 0.951 and 0.989, and 0.876 with
 the map turned 37 degrees, where the box chain read 0.930.) So each cone's k is checked against the chain's own
-read of the broadened lobe along the same two mirrors (vct_glossy_env.glsl compiled alone, bound as the cones
-bind it): within 0.002 (measured within 3e-4 everywhere), and below the exact lobe's first moment. What that
+read of the broadened lobe along the same two mirrors (VoxelScene.read_environment: vct_glossy_env.glsl bound as
+the cones bind it): within 0.002 (measured within 3e-4 everywhere), and below the exact lobe's first moment. What that
 tells apart, each checked: the chain's reads of N = 50's and 500's broadened lobes (0.936 and 0.976 on the cube),
 so a lost or wrong exponent; a lobe read about the axis alone from the broadened one where the broadening is large:
 a wide cone (25 degrees, N = 500: N' = 18.5, k 0.835 where the lobe about the axis reads 0.986) and a plane whose
@@ -57,7 +57,6 @@ import realtime
 import scenes
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
-from realtime.engine.gpu import expand_includes, with_defines
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import directions, envmap
@@ -119,36 +118,10 @@ def cone_reads(vs, dirs: np.ndarray, cone: tuple[float, float]) -> np.ndarray:
     return out[:, :3].mean(axis=1) / out[:, 3]
 
 
-READ_SHADER = """#version 430
-layout(local_size_x = 1) in;
-#include "vct_glossy_env.glsl"
-layout(std430, binding = 0) writeonly buffer Out { vec4 result[]; };
-uniform vec3 direction[2];
-uniform float exponent;
-void main() {
-    for (int k = 0; k < 2; ++k) result[k] = vec4(vct_glossy_env(direction[k], exponent), 0.0);
-}
-"""
-
-
-def chain_reads(vs, env, mirrors: np.ndarray, exponent: float) -> np.ndarray:
-    """The store's chain read directly, as the cones bind it (`VoxelScene.bind_environment`, vct_glossy_env.glsl),
-    along two `mirrors` for a Phong lobe of `exponent`: grey (2,)."""
-    ctx = get_context()
-    prog = ctx.compute_shader(with_defines(expand_includes(READ_SHADER, "realtime.techniques.vct"),
-                                           env.lookup_defines()))
-    out = ctx.buffer(reserve=2 * 16)
-    try:
-        vs.bind_environment(prog, 0)
-        prog["direction"].value = [tuple(float(x) for x in m) for m in mirrors]
-        prog["exponent"].value = float(exponent)
-        out.bind_to_storage_buffer(0)
-        prog.run(1)
-        ctx.finish()
-        return np.frombuffer(out.read(), "f4").reshape(2, 4)[:, :3].mean(axis=1).astype(np.float64)
-    finally:
-        out.release()
-        prog.release()
+def chain_reads(vs, mirrors: np.ndarray, exponent: float) -> np.ndarray:
+    """The store's chain read directly, as the cones read it (`VoxelScene.read_environment`), along two
+    `mirrors` for a Phong lobe of `exponent`: grey (2,)."""
+    return vs.read_environment(mirrors, np.full(len(mirrors), exponent)).mean(axis=1)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -180,7 +153,7 @@ def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: 
     scale = 2.0 * s * np.linalg.norm(h)
     chain_k = {}
     for n in chain_exponents:
-        read = chain_reads(vs, env, mirrors, n)
+        read = chain_reads(vs, mirrors, n)
         chain_k[n] = float((read[0] - read[1]) / scale)
     vs.release()
     env.release()

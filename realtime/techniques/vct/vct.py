@@ -318,6 +318,7 @@ class VoxelScene:
         self.radiance_scale = vct_math.radiance_scale(peak * bounces)
         self.probe_prog = None
         self.cone_prog = None
+        self.env_probe_prog = None
         self.updated_frame: int | None = None
         self.split: dict[str, float] = {}
 
@@ -648,6 +649,19 @@ class VoxelScene:
         data[:, 2, :3], data[:, 3, :3] = surfaces, normals
         return self._dispatch(p, data, "cones", "the cone probe's cones", lod_min, rgb_lod_min)
 
+    def read_environment(self, directions: np.ndarray, exponents: np.ndarray) -> np.ndarray:
+        """Tests: the environment's chain as the cones read it (vct_glossy_env.glsl, bound by `bind_environment`):
+        (N, 3) L_g along `directions` (N, 3) for Phong `exponents` (N,)."""
+        if self.env_filter is None:
+            raise ValueError("reading the environment's chain needs the frame's environment store (env_filter)")
+        if self.env_probe_prog is None:
+            self.env_probe_prog = self.ctx.compute_shader(shader_source(
+                "vct_env_probe.comp", self.env_filter.lookup_defines(), package=__package__))
+        data = np.zeros((len(directions), 4), "f4")
+        data[:, :3], data[:, 3] = directions, exponents
+        return self._dispatch(self.env_probe_prog, data, "environment reads", "the environment probe's reads",
+                              0.0)[:, :3]
+
     def _dispatch(self, prog, data: np.ndarray, key: str, what: str, lod_min: float,
                   rgb_lod_min: float = 0.0) -> np.ndarray:
         """Run a trace-reading compute shader over the records in `data` (storage buffer 0), one
@@ -692,7 +706,7 @@ class VoxelScene:
         for r in [self.triangles, *scratch, *self.faces, *self.normals, self.gloss, self.columns,
                   self.voxelize_prog, self.normals_prog, self.inject_prog, self.bounce_prog, self.mip_prog,
                   self.gloss_mip_prog, self.normal_mip_prog, self.column_mip_prog,
-                  self.probe_prog, self.cone_prog]:
+                  self.probe_prog, self.cone_prog, self.env_probe_prog]:
             if r is not None:
                 r.release()
 
