@@ -98,7 +98,8 @@ def test_the_chain_follows_each_fill():
 @pytest.mark.parametrize("glossy", [True, False], ids=["glossy", "diffuse"])
 def test_a_voxel_scene_binds_the_weighted_chain_where_a_glossy_surface_reads_it(glossy):
     """A plane voxelised under the zenith cap, the store passed as a frame passes it, the chain read as the cones
-    read it (VoxelScene.read_environment: vct_glossy_env.glsl through bind_environment). With a Phong plane it is
+    read it (VoxelScene.read_environment: vct_glossy_env.glsl through bind_environment; the chain alone, without
+    the broad-lobe table, which tests/realtime/test_vct_lobe_table.py checks). With a Phong plane it is
     the weighted chain: a lobe as wide as a hemisphere (N = 0, the level clamped to the 1x1 faces) along +y reads
     the +y face's mean, 2.809, along +x 1; a sharp lobe (N = 1e6, level 0) toward a cube corner, where a base
     texel covers 0.37 of the mean texel's solid angle, reads 1 (the read divides the weight out). With a diffuse
@@ -118,7 +119,7 @@ def test_a_voxel_scene_binds_the_weighted_chain_where_a_glossy_surface_reads_it(
         vs = VoxelScene(ctx, [SimpleNamespace(mesh=plane.mesh, material=material)], 16, 1, 6, 0.5, env_filter=f)
         vs.update(None, f.sh_buffer)
         reads = vs.read_environment(np.array([[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [corner, corner, corner]]),
-                                    np.array([0.0, 0.0, 1e6]))[:, 0]
+                                    np.array([0.0, 0.0, 1e6]), table=False)[:, 0]
         built = f.solid_angle_cube is not None
     finally:
         if vs is not None:

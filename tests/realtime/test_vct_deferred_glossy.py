@@ -16,22 +16,21 @@ spread (2 l^2 - 1, l the stored normals' mean length: 1 on a plane): N' = vct_ma
 moment (N' + 1) / (N' + 2) (zonal convolutions multiply first moments; checked by sampling in test_vct_math.py).
 The narrow cone's 5 degrees take N = 50 to N' = 45.4 and 500 to 255.
 
-The store's chain stands in for the lobe with a box of texels at the level whose mean texel solid angle is the
-lobe's 2 pi / (N' + 1) (McGuire et al.), read trilinearly: it blurs the lobe, so its k is below the exact lobe's
-(N' + 1) / (N' + 2), by how much depending on where r falls among the texels. (On the cube the chain is weighted by
-solid angle: a texel holds the mean over the solid angle it covers, whose centroid lies nearer the face's centre
-than the texel's centre, where the interpolation puts it; this flattens a linear map's slope. Along these mirrors it
-reads k 0.936 and 0.976 at N' = 45.4 and 255 where the paper's box chain read 0.951 and 0.989, and 0.876 with
-the map turned 37 degrees, where the box chain read 0.930.) So each cone's k is checked against the chain's own
-read of the broadened lobe along the same two mirrors (VoxelScene.read_environment: vct_glossy_env.glsl bound as
-the cones bind it): within 0.002 (measured within 3e-4 everywhere), and below the exact lobe's first moment. What that
-tells apart, each checked: the chain's reads of N = 50's and 500's broadened lobes (0.936 and 0.976 on the cube),
-so a lost or wrong exponent; a lobe read about the axis alone from the broadened one where the broadening is large:
-a wide cone (25 degrees, N = 500: N' = 18.5, k 0.835 where the lobe about the axis reads 0.986) and a plane whose
-stored spread is set to l = 0.99 or 0.97 (stored 0.9896 and 0.9702: N' = 20.2 and 6.3, k 0.844 and 0.696) where the
-unspread lobe reads 0.976. Checked for each of the environment store's parameterizations (the read looks the
-store up through its own uniforms), with the map turned 37 degrees (a swapped, negated or doubly applied turn
-reads another direction), and with a cone wide enough to read the gloss texture's mips 3-4.
+On the cube store, below the broad-lobe table's top exponent (127, realtime/techniques/vct/lobe_table.py), the read
+is the lobe's integral itself, so k is the exact first moment (N' + 1) / (N' + 2): checked within 0.002. Above it,
+and on the 2D stores always, the store's chain stands in for the lobe with a box of texels at the level whose mean
+texel solid angle is the lobe's 2 pi / (N' + 1) (McGuire et al.), read trilinearly: it blurs the lobe, so its k is
+below the exact lobe's, by how much depending on where r falls among the texels (N = 500's N' = 255 reads 0.976 on
+the cube's weighted chain). So each cone's k is also checked against the store's own read of the broadened lobe
+along the same two mirrors (VoxelScene.read_environment: vct_glossy_env.glsl bound as the cones bind it): within
+0.002, and below the exact lobe's first moment where the chain reads. What that tells apart, each checked: a
+wrong exponent (N = 10's broadened lobe, N' = 9.8, k 0.917 on the cube); a lobe read about the axis alone from
+the broadened one where the broadening is large: a wide cone (25 degrees, N = 500: N' = 18.5, k 0.951 where the
+lobe about the axis, read by the chain, gives 0.986) and a plane whose stored spread is set to l = 0.99 or 0.97
+(stored 0.9896 and 0.9702: N' = 20.2 and 6.3, k 0.955 and 0.879) where the unspread lobe reads 0.976. Checked for
+each of the environment store's parameterizations (the read looks the store up through its own uniforms), with
+the map turned 37 degrees (a swapped, negated or doubly applied turn reads another direction), and with a cone
+wide enough to read the gloss texture's mips 3-4.
 
 Under a constant environment a cone 80 degrees off the vertical sees r graze the plane (n . r = cos 80): the read
 scales the lobe by its share above the horizon, vct_math.lobe_above_horizon (0.893 for N = 50, itself checked
@@ -57,7 +56,7 @@ import realtime
 import scenes
 from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
-from realtime.techniques.vct import vct_math
+from realtime.techniques.vct import lobe_table, vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import directions, envmap
 
@@ -172,17 +171,27 @@ def exact_k(exponent: float) -> float:
     return (exponent + 1.0) / (exponent + 2.0)
 
 
+def assert_k(r: Reading, right: float, parameterization: str = "cube") -> None:
+    """The cones' k is the store's own read of the lobe N' = `right`: on the cube below the broad-lobe table's top
+    exponent the exact first moment, otherwise the chain's blur, below it."""
+    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    if parameterization == "cube" and right < lobe_table.TOP_EXPONENT:
+        assert r.k == pytest.approx(exact_k(right), abs=K_TOLERANCE)
+    else:
+        assert r.k < exact_k(right) + K_TOLERANCE
+
+
 @pytest.mark.parametrize("parameterization", ["cube", "dual_paraboloid", "sphere_map"])
 @pytest.mark.parametrize("exponent", [50.0, 500.0])
 def test_a_cone_gathers_the_glossy_reflection_toward_itself(linear_sky, parameterization, exponent):
-    """k is the chain's own read of the broadened lobe along the cone's mirror direction, below the exact lobe's
-    first moment; N = 500 read with N = 50's lobe would be told apart."""
-    right, wrong = broadened(exponent, NARROW), broadened(50.0 if exponent == 500.0 else 500.0, NARROW)
+    """k is the store's own read of the broadened lobe along the cone's mirror direction: on the cube below the
+    broad-lobe table's top exponent the lobe's integral, so the exact first moment; otherwise the chain's, below
+    it. A lobe read with a wrong exponent (N = 10's, N' = 9.8, k 0.917) would be told apart."""
+    right, wrong = broadened(exponent, NARROW), broadened(10.0, NARROW)
     r = constant_and_k(linear_sky, {"realtime.parameterization": parameterization}, exponent, True, NARROW,
                        chain_exponents=(right, wrong))
     assert r.constant == pytest.approx(1.0, rel=0.01)
-    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
-    assert r.k < exact_k(right) + K_TOLERANCE
+    assert_k(r, right, parameterization)
     assert abs(r.chain_k[wrong] - r.chain_k[right]) > APART  # the exponents' reads are apart
 
 
@@ -191,19 +200,18 @@ def test_the_read_looks_up_the_world_direction_of_a_turned_environment(linear_sk
     right = broadened(50.0, cone)
     r = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone, chain_exponents=(right,))
     assert r.constant == pytest.approx(1.0, rel=0.01)
-    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
-    assert r.k < exact_k(right) + K_TOLERANCE
+    assert_k(r, right)
 
 
 def test_a_wide_cone_reads_the_lobe_broadened_by_its_aperture(linear_sky):
     """A cone of 25 degrees reading an N = 500 plane gathers the lobe's mean over the cone's directions, N' =
-    broadened_exponent(500, (1 + cos 25 deg) / 2) = 18.5, first moment at most 0.951; the chain's read of the lobe
-    about the axis alone (N = 500) is far above it."""
+    broadened_exponent(500, (1 + cos 25 deg) / 2) = 18.5, first moment 0.951 (the broad-lobe table's read); the
+    chain's read of the lobe about the axis alone (N = 500) is far above it."""
     right = broadened(500.0, WIDE)
     r = constant_and_k(linear_sky, {}, 500.0, True, WIDE, chain_exponents=(right, 500.0))
     assert exact_k(right) < 0.96
     assert r.constant == pytest.approx(1.0, rel=0.01)
-    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert_k(r, right)
     assert r.chain_k[500.0] > r.k + APART
 
 
@@ -211,15 +219,14 @@ def test_a_wide_cone_reads_the_lobe_broadened_by_its_aperture(linear_sky):
 def test_spread_normals_broaden_the_lobe_they_reflect(linear_sky, mean_length):
     """The plane's stored spread set to l (its faces then stand for normals of mean cosine l; stored as the byte
     round(255 sqrt(1 - l)): 0.98960 and 0.97023 for 0.99 and 0.97): the read takes the mirrors' spread, mean
-    cosine 2 l^2 - 1 (0.959, 0.883), so k is the chain's read at N' = broadened_exponent(500, 0.998 (2 l^2 - 1))
-    (N' = 20.2, 6.3), first moment at most 0.955 and 0.879. Control: l = 1 written the same way reads N = 500's
-    broadened lobe (N' = 255), and the spread normals' k is far below that lobe's read."""
+    cosine 2 l^2 - 1 (0.959, 0.883), so k is the store's read at N' = broadened_exponent(500, 0.998 (2 l^2 - 1))
+    (N' = 20.2, 6.3): the broad-lobe table's, first moment 0.955 and 0.879. Control: l = 1 written the same way
+    reads N = 500's broadened lobe (N' = 255), and the spread normals' k is far below that lobe's read."""
     stored = 1.0 - (round(255.0 * math.sqrt(1.0 - mean_length)) / 255.0) ** 2
     right, unspread = broadened(500.0, NARROW, stored), broadened(500.0, NARROW)
     r = constant_and_k(linear_sky, {}, 500.0, True, NARROW, mean_length, chain_exponents=(right, unspread))
     assert r.constant == pytest.approx(1.0, rel=0.01)
-    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
-    assert r.k < exact_k(right) + K_TOLERANCE
+    assert_k(r, right)
     if mean_length < 1.0:
         assert r.chain_k[unspread] > r.k + APART
 

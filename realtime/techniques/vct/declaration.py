@@ -72,7 +72,9 @@ def describe(rt) -> dict:
 #: 11: the environment's chain the cones read (the injection's glossy lobe, the deferred glossy read) weighted by
 #: solid angle (gpu.py's EnvironmentFilter.solid_angle_chain), where the paper's box chain weighs a cube face's
 #: corner texels as its centre's: scenes without glossy surfaces are unchanged
-MODEL_VERSION = 11
+#: 12: the glossy reads' lobes below N = 255 from the broad-lobe table (lobe_table.py), the lobe's integral over
+#: the environment, where a chain texel's box mean had stood for it: scenes without glossy surfaces are unchanged
+MODEL_VERSION = 12
 _COMMON = dict(table="vct", parameters=Vct, table_hint='realtime.occlusion or interreflection = "vct"',
                model_version=MODEL_VERSION,
                timing_key="voxelize", extra_timing_keys=("mip",), package=__package__,

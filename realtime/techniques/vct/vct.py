@@ -93,6 +93,7 @@ from realtime.engine import limits
 from realtime.engine.gpu import EnvironmentFilter, shader_source
 from realtime.engine.technique import Frame, Technique, set_uniform
 from realtime.techniques.vct import vct_math
+from realtime.techniques.vct.lobe_table import LobeTable
 from scenes.model import materials
 
 #: the cones' origin moves this many voxels along the surface normal (self-intersection offset)
@@ -125,6 +126,8 @@ NORMAL_UNIT0 = ENV_UNIT + 1
 #: texture unit of the gloss texture (the deferred glossy read), and the image the injection writes it through
 #: (after the faces' 0..5 and the column texture's 6: the eighth, the most some drivers offer a compute shader)
 GLOSS_UNIT = NORMAL_UNIT0 + 6
+#: texture unit of the broad-lobe table (lobe_table.py), read with the environment's chain
+LOBE_UNIT = GLOSS_UNIT + 1
 GLOSS_IMAGE = COLUMN_IMAGE + 1
 FACE_NAMES = ("px", "nx", "py", "ny", "pz", "nz")
 #: six RGBA16F faces, the RGBA16F column texture and six RGBA8 face normals
@@ -293,7 +296,12 @@ class VoxelScene:
         defines = compute_defines(refl, self.triangle_count)
         self.voxelize_prog = ctx.compute_shader(shader_source("vct_voxelize.comp", defines, package=here))
         self.env_filter = env_filter
-        env_defines = () if env_filter is None else ("VCT_GLOSSY_ENV", *env_filter.lookup_defines())
+        #: the broad lobes' table (lobe_table.py), on a cube store where a glossy surface reads the environment
+        self.lobe_table = (LobeTable(ctx, env_filter)
+                           if self.reads_environment and isinstance(env_filter, EnvironmentFilter) else None)
+        self.env_defines = () if env_filter is None else (
+            "VCT_GLOSSY_ENV", *env_filter.lookup_defines(), *(("VCT_LOBE_TABLE",) if self.lobe_table else ()))
+        env_defines = self.env_defines
         #: what every program that reads the cones' radiance (vct_trace.glsl) is compiled with: the shading pass's
         #: too. The injection's direct pass uses the cones' opacities only, so its program stores the gloss
         #: (VCT_DEFERRED_GLOSSY) without reading it (VCT_GLOSS_READ): llvmpipe runs both sides of a branch masked,
@@ -318,7 +326,7 @@ class VoxelScene:
         self.radiance_scale = vct_math.radiance_scale(peak * bounces)
         self.probe_prog = None
         self.cone_prog = None
-        self.env_probe_prog = None
+        self.env_probe_progs: dict[tuple[str, ...], moderngl.ComputeShader] = {}
         self.updated_frame: int | None = None
         self.split: dict[str, float] = {}
 
@@ -338,6 +346,8 @@ class VoxelScene:
         if self.reads_environment and isinstance(self.env_filter, EnvironmentFilter):
             # the chain the glossy reads take, refreshed here (counted in `voxelize`) rather than inside a bind
             self.env_filter.solid_angle_chain()
+        if self.lobe_table is not None:
+            self.lobe_table.build()
         self.voxelize()
         for c in range(self.count):
             self.write_normals(c)
@@ -535,6 +545,8 @@ class VoxelScene:
         if isinstance(self.env_filter, EnvironmentFilter) and self.reads_environment:
             self.env_filter.solid_angle_chain().use(unit)
             set_uniform(prog, "vct_env_cube", unit)
+            if self.lobe_table is not None:
+                self.lobe_table.bind(prog, LOBE_UNIT)
         else:
             self.env_filter.bind_lookup(prog, unit, cube_uniform="vct_env_cube")
         set_uniform(prog, "vct_env_base_size", float(self.env_filter.base_size))
@@ -649,18 +661,20 @@ class VoxelScene:
         data[:, 2, :3], data[:, 3, :3] = surfaces, normals
         return self._dispatch(p, data, "cones", "the cone probe's cones", lod_min, rgb_lod_min)
 
-    def read_environment(self, directions: np.ndarray, exponents: np.ndarray) -> np.ndarray:
-        """Tests: the environment's chain as the cones read it (vct_glossy_env.glsl, bound by `bind_environment`):
-        (N, 3) L_g along `directions` (N, 3) for Phong `exponents` (N,)."""
+    def read_environment(self, directions: np.ndarray, exponents: np.ndarray, table: bool = True) -> np.ndarray:
+        """Tests: the environment as the glossy reads take it (vct_glossy_env.glsl, bound by `bind_environment`):
+        (N, 3) L_g along `directions` (N, 3) for Phong `exponents` (N,); `table` False: the chain alone, as
+        without the broad-lobe table (the measure it is checked against)."""
         if self.env_filter is None:
             raise ValueError("reading the environment's chain needs the frame's environment store (env_filter)")
-        if self.env_probe_prog is None:
-            self.env_probe_prog = self.ctx.compute_shader(shader_source(
-                "vct_env_probe.comp", self.env_filter.lookup_defines(), package=__package__))
+        defines = self.env_defines if table else tuple(d for d in self.env_defines if d != "VCT_LOBE_TABLE")
+        prog = self.env_probe_progs.get(defines)
+        if prog is None:
+            prog = self.env_probe_progs[defines] = self.ctx.compute_shader(
+                shader_source("vct_env_probe.comp", defines, package=__package__))
         data = np.zeros((len(directions), 4), "f4")
         data[:, :3], data[:, 3] = directions, exponents
-        return self._dispatch(self.env_probe_prog, data, "environment reads", "the environment probe's reads",
-                              0.0)[:, :3]
+        return self._dispatch(prog, data, "environment reads", "the environment probe's reads", 0.0)[:, :3]
 
     def _dispatch(self, prog, data: np.ndarray, key: str, what: str, lod_min: float,
                   rgb_lod_min: float = 0.0) -> np.ndarray:
@@ -706,7 +720,7 @@ class VoxelScene:
         for r in [self.triangles, *scratch, *self.faces, *self.normals, self.gloss, self.columns,
                   self.voxelize_prog, self.normals_prog, self.inject_prog, self.bounce_prog, self.mip_prog,
                   self.gloss_mip_prog, self.normal_mip_prog, self.column_mip_prog,
-                  self.probe_prog, self.cone_prog, self.env_probe_prog]:
+                  self.probe_prog, self.cone_prog, *self.env_probe_progs.values(), self.lobe_table]:
             if r is not None:
                 r.release()
 

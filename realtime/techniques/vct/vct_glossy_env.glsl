@@ -1,11 +1,17 @@
-// L_g(r): the environment convolved with the normalised Phong lobe of exponent N about r, read from the frame's
-// environment store (the cube's chain weighted by solid angle, or a 2D parameterization's own chain through
-// env_map.glsl) at the level whose texel covers the lobe's solid angle (McGuire et al. 2013,
-// realtime.engine.levels.mcguire_offset).
-// The lobe's normalisation (N + 1) / (2 pi) makes it worth 2 pi / (N + 1) sr, a cube texel at level l covers
-// about 4 pi / (6 (base / 2^l)^2), so l = log2(base sqrt(3)) - 0.5 log2(N + 1). The injection reads it for the
-// glossy lobe it stores (vct_inject.comp); the deferred glossy read (VCT_GLOSS_READ, vct_trace.glsl) reads
-// it toward each cone. Included once per shader.
+// L_g(r, N): the environment convolved with the normalised Phong lobe of exponent N about r,
+// (N + 1) / (2 pi) int L(w) max(r . w, 0)^N dw. The injection reads it for the glossy lobe it stores
+// (vct_inject.comp); the deferred glossy read (VCT_GLOSS_READ, vct_trace.glsl) reads it toward each cone, broadened
+// to a few units of N on the diffuse cones. Included once per shader.
+// - On a cube store (VCT_LOBE_TABLE): the lobe's integral tabulated for N = 2^j - 1, j = 0..7
+//   (lobe_table.py), read quadratically in j = log2(N + 1) through the three nearest layers; above the top layer
+//   (127) blended into the chain over one octave, the chain alone from 255. A chain's texel is a box mean, not
+//   the lobe: its read misses the lobe's integral by 14-92 % RMS of the mean radiance for N = 0-50 on the
+//   probes, the table's by at most 3 % up to 50 (benchmarks/vct_lobe_table.py).
+// - The chain (vct_chain_env; a 2D store always): the environment's mip chain (on the cube the chain weighted by
+//   solid angle; a 2D parameterization's own through env_map.glsl) at the level whose texel covers the lobe's
+//   solid angle (McGuire et al. 2013, realtime.engine.levels.mcguire_offset): the lobe's normalisation makes it
+//   worth 2 pi / (N + 1) sr, a cube texel at level l covers about 4 pi / (6 (base / 2^l)^2), so
+//   l = log2(base sqrt(3)) - 0.5 log2(N + 1).
 #ifndef VCT_GLOSSY_ENV_GLSL
 #define VCT_GLOSSY_ENV_GLSL
 uniform float vct_env_base_size;  // the cube's level-0 face size (a 2D store's cube-equivalent budget)
@@ -25,7 +31,34 @@ vec3 vct_env_lookup(vec3 r, float lod) {
 }
 #endif
 
-vec3 vct_glossy_env(vec3 r, float N) {
+vec3 vct_chain_env(vec3 r, float N) {
     return max(vct_env_lookup(r, log2(vct_env_base_size * sqrt(3.0)) - 0.5 * log2(N + 1.0)), vec3(0.0));
 }
+
+#ifdef VCT_LOBE_TABLE
+// Each layer is a smooth function of N (its SH band factors are rational in N), so the read is quadratic in j
+// through the three layers nearest it (Lagrange weights; linear interpolation had missed by 5-6 % RMS at N = 2-4
+// under Ennis, between layers); bilinear in the axis (vct_lobe_axis.glsl's grid).
+#include "vct_lobe_axis.glsl"
+uniform sampler3D vct_lobe_table;
+const float VCT_LOBE_LAYERS = 8.0;  // lobe_table.LAYERS
+vec3 vct_glossy_env(vec3 r, float N) {
+    float j = log2(max(N, 0.0) + 1.0);
+    float past = clamp(j - (VCT_LOBE_LAYERS - 1.0), 0.0, 1.0);
+    vec3 table = vec3(0.0);
+    if (past < 1.0) {
+        float k = clamp(floor(j + 0.5), 1.0, VCT_LOBE_LAYERS - 2.0), x = min(j, VCT_LOBE_LAYERS - 1.0) - k;
+        vec2 uv = vct_lobe_uv(r);
+        vec3 a = texture(vct_lobe_table, vec3(uv, (k - 0.5) / VCT_LOBE_LAYERS)).rgb;
+        vec3 b = texture(vct_lobe_table, vec3(uv, (k + 0.5) / VCT_LOBE_LAYERS)).rgb;
+        vec3 c = texture(vct_lobe_table, vec3(uv, (k + 1.5) / VCT_LOBE_LAYERS)).rgb;
+        table = max(0.5 * x * (x - 1.0) * a + (1.0 - x * x) * b + 0.5 * x * (x + 1.0) * c, vec3(0.0));
+    }
+    return past > 0.0 ? mix(table, vct_chain_env(r, N), past) : table;
+}
+#else
+vec3 vct_glossy_env(vec3 r, float N) {
+    return vct_chain_env(r, N);
+}
+#endif
 #endif

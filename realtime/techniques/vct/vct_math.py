@@ -31,6 +31,8 @@ from functools import cache
 
 import numpy as np
 
+from scenes.environment import cubemap
+
 #: cone counts `[realtime.vct] diffuse_cones` may take
 CONE_COUNTS = (4, 6, 9)
 #: the glossy cone's half-angle is clamped to this range (degrees)
@@ -461,3 +463,29 @@ def cap_visibility(radius: float, height: float) -> float:
     whose centre is at `height`: the sphere blocks a cap of half-angle b with sin b = r / h, whose share of
     the cosine lobe is sin^2 b, so V = 1 - (r / h)^2."""
     return 1.0 - (radius / height) ** 2
+
+
+def reduced_faces(faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A cube's faces (6, s, s, 3) as `size`^2-texel faces (s a multiple of `size`): (directions (n, 3), solid
+    angles (n,), mean radiance (n, 3)), each texel's radiance the solid-angle-weighted mean of the texels it
+    holds."""
+    s = faces.shape[1]
+    k = s // size
+    if k * size != s:
+        raise ValueError(f"a cube of {s} texels a face does not reduce to {size}")
+    omega = cubemap.texel_solid_angles(s)
+    weighted = (faces * omega[..., None]).reshape(6, size, k, size, k, 3).sum((2, 4)).reshape(-1, 3)
+    w = np.broadcast_to(omega, faces.shape[:3]).reshape(6, size, k, size, k).sum((2, 4)).reshape(-1)
+    return cubemap.texel_directions(size).reshape(-1, 3), w, weighted / w[:, None]
+
+
+def lobe_integrals(faces: np.ndarray, axes: np.ndarray, exponent: float, size: int = 64) -> np.ndarray:
+    """(n, 3) the normalised Phong lobe's integral of a cube environment, (N + 1) / (2 pi) int L(w)
+    max(r . w, 0)^N dw, about each axis r (n, 3), by quadrature in float64 over the cube `faces` reduced to `size`
+    texels a face: sum_k L_k W_k (r . w_k)^N / sum_k W_k (r . w_k)^N over the texels in front of r (normalised by
+    the same sum, exact for a constant environment). The reference the broad-lobe table (lobe_table.py) is
+    measured against, at a finer source than the table's."""
+    dirs, w, radiance = reduced_faces(faces, size)
+    c = np.asarray(axes, dtype=np.float64) @ dirs.T
+    lobe = np.where(c > 0.0, np.maximum(c, 0.0) ** exponent, 0.0) * w
+    return (lobe @ radiance) / lobe.sum(axis=1, keepdims=True)
