@@ -2,7 +2,7 @@
 whose texel covers the lobe (vct_glossy_env.glsl's `vct_chain_env`) beside the broad-lobe table
 (realtime/techniques/vct/lobe_table.py), and what the table costs to build.
 
-    .venv/bin/python benchmarks/vct_lobe_table.py [--probes ennis,uffizi,wells,pisa,studio] [--exponents 0,1,...]
+    .venv/bin/python benchmarks/vct_lobe_table.py [--probes ennis,uffizi,...] [--exponents 0,1,...] [--directions 3000]
 
 For each probe (a cube of 256 texels a face, filled and filtered on the GPU as a frame does) and each Phong
 exponent N, the reads along `--directions` random directions (`VoxelScene.read_environment`, as the cones read
@@ -18,6 +18,7 @@ import statistics
 import time
 from types import SimpleNamespace
 
+import moderngl
 import numpy as np
 
 import scenes
@@ -35,7 +36,7 @@ def random_axes(n: int, seed: int = 1) -> np.ndarray:
     return d / np.linalg.norm(d, axis=1, keepdims=True)
 
 
-def glossy_voxel_scene(ctx, env_filter: EnvironmentFilter) -> VoxelScene:
+def glossy_voxel_scene(ctx: moderngl.Context, env_filter: EnvironmentFilter) -> VoxelScene:
     """A voxelised Phong plane (a glossy surface: the scene reads the environment), for its environment probe."""
     plane = scenes.load("builtin:sphere-on-plane").objects[1]
     material = scenes.load("builtin:torus-phong").objects[0].material
@@ -89,7 +90,8 @@ def main() -> None:
     args = ap.parse_args()
     exponents = [float(v) for v in args.exponents.split(",")]
     print("RMS error of the read over the lobe's integral, as a fraction of the environment's mean radiance "
-          f"({args.directions} random axes; cube of {BASE} texels a face). Frame times are llvmpipe's: CPU.\n")
+          f"({args.directions} random axes; cube of {BASE} texels a face). Build times on this machine's OpenGL "
+          f"({get_context().info['GL_RENDERER']}; llvmpipe's are CPU times).\n")
     print("| probe | read | " + " | ".join(f"N = {n:g}" for n in exponents) + " |")
     print("|---|---|" + "---|" * len(exponents))
     for name in args.probes.split(","):

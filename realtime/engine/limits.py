@@ -13,8 +13,8 @@ A storage buffer beyond GL_MAX_SHADER_STORAGE_BLOCK_SIZE gets a `warning:` line 
 Beyond the limits that can be queried, a driver may still refuse a resource (memory): `check_created`
 reads the GL error flag after a resource is made and refuses the same way.
 The shading pass's active samplers are known only to the linker: techniques that together sample more
-textures than GL_MAX_TEXTURE_IMAGE_UNITS (16 guaranteed; voxel cone tracing alone samples 13 3D textures, 15
-samplers with its deferred glossy read's gloss texture and environment store)
+textures than GL_MAX_TEXTURE_IMAGE_UNITS (16 guaranteed; voxel cone tracing alone samples 13 3D textures, 16
+samplers with its deferred glossy read's gloss texture, the environment store and its broad-lobe table)
 fail to link, and `sampler_refusal` turns that link error into the same refusal, naming the techniques.
 
 The one case where going on is honest is an environment map too wide or tall for one texture:

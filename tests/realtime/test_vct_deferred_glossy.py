@@ -70,9 +70,10 @@ NARROW = (math.tan(math.radians(5.0)), 0.6)
 #: wide, from higher up: the cone's diameter at the plane is about 10 voxels (levels 3-4)
 WIDE = (math.tan(math.radians(25.0)), 1.2)
 GRID = vct_math.Cascades((0.0, 0.5 * 4.4 / 32, 0.0), 2.2, 32, 1)
-#: the cones' k against the chain's own read along the same mirrors (measured within 3e-4)
+#: the cones' k against the store's own read along the same mirrors, and against the exact first moment where the
+#: broad-lobe table reads
 K_TOLERANCE = 0.002
-#: how far apart the chain's reads of the right and a wrong lobe must be for the check to tell them apart
+#: how far apart the store's reads of the right and a wrong lobe must be for the check to tell them apart
 APART = 0.01
 
 
@@ -117,26 +118,26 @@ def cone_reads(vs, dirs: np.ndarray, cone: tuple[float, float]) -> np.ndarray:
     return out[:, :3].mean(axis=1) / out[:, 3]
 
 
-def chain_reads(vs, mirrors: np.ndarray, exponent: float) -> np.ndarray:
-    """The store's chain read directly, as the cones read it (`VoxelScene.read_environment`), along two
-    `mirrors` for a Phong lobe of `exponent`: grey (2,)."""
+def store_reads(vs, mirrors: np.ndarray, exponent: float) -> np.ndarray:
+    """The store read directly, as the cones read it (`VoxelScene.read_environment`: the broad-lobe table or the
+    chain), along two `mirrors` for a Phong lobe of `exponent`: grey (2,)."""
     return vs.read_environment(mirrors, np.full(len(mirrors), exponent)).mean(axis=1)
 
 
 @dataclasses.dataclass(frozen=True)
 class Reading:
     """The cones' readings ks (1 + k e . r) toward +e_h and -e_h as (constant term / ks, k), and the k of the
-    store's chain read directly along the same mirrors for each exponent asked for."""
+    store read directly along the same mirrors for each exponent asked for."""
     constant: float
     k: float
-    chain_k: dict[float, float]
+    store_k: dict[float, float]
 
 
 def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: bool,
                    cone: tuple[float, float], mean_length: float | None = None,
-                   chain_exponents: tuple[float, ...] = ()) -> Reading:
+                   read_exponents: tuple[float, ...] = ()) -> Reading:
     """The cones tilted toward +e_h and -e_h read the plane (with `mean_length`, every face normal's stored spread
-    set to it, level 0, then the mips, before the reads); the chain read directly at each of `chain_exponents`."""
+    set to it, level 0, then the mips, before the reads); the store read directly at each of `read_exponents`."""
     vs, env, e = voxels({"environment.map": linear_sky, **overrides}, exponent, deferred)
     if mean_length is not None:
         normals = vs.read_normals(0)
@@ -150,13 +151,13 @@ def constant_and_k(linear_sky: str, overrides: dict, exponent: float, deferred: 
     got = cone_reads(vs, dirs, cone)  # mirror directions r = (+-s toward, c)
     mirrors = dirs * np.array([1.0, -1.0, 1.0])
     scale = 2.0 * s * np.linalg.norm(h)
-    chain_k = {}
-    for n in chain_exponents:
-        read = chain_reads(vs, mirrors, n)
-        chain_k[n] = float((read[0] - read[1]) / scale)
+    store_k = {}
+    for n in read_exponents:
+        read = store_reads(vs, mirrors, n)
+        store_k[n] = float((read[0] - read[1]) / scale)
     vs.release()
     env.release()
-    return Reading(float(got.mean() / KS), float((got[0] - got[1]) / (KS * scale)), chain_k)
+    return Reading(float(got.mean() / KS), float((got[0] - got[1]) / (KS * scale)), store_k)
 
 
 def broadened(exponent: float, cone: tuple[float, float], mean_length: float = 1.0) -> float:
@@ -174,7 +175,7 @@ def exact_k(exponent: float) -> float:
 def assert_k(r: Reading, right: float, parameterization: str = "cube") -> None:
     """The cones' k is the store's own read of the lobe N' = `right`: on the cube below the broad-lobe table's top
     exponent the exact first moment, otherwise the chain's blur, below it."""
-    assert r.k == pytest.approx(r.chain_k[right], abs=K_TOLERANCE)
+    assert r.k == pytest.approx(r.store_k[right], abs=K_TOLERANCE)
     if parameterization == "cube" and right < lobe_table.TOP_EXPONENT:
         assert r.k == pytest.approx(exact_k(right), abs=K_TOLERANCE)
     else:
@@ -189,16 +190,16 @@ def test_a_cone_gathers_the_glossy_reflection_toward_itself(linear_sky, paramete
     it. A lobe read with a wrong exponent (N = 10's, N' = 9.8, k 0.917) would be told apart."""
     right, wrong = broadened(exponent, NARROW), broadened(10.0, NARROW)
     r = constant_and_k(linear_sky, {"realtime.parameterization": parameterization}, exponent, True, NARROW,
-                       chain_exponents=(right, wrong))
+                       read_exponents=(right, wrong))
     assert r.constant == pytest.approx(1.0, rel=0.01)
     assert_k(r, right, parameterization)
-    assert abs(r.chain_k[wrong] - r.chain_k[right]) > APART  # the exponents' reads are apart
+    assert abs(r.store_k[wrong] - r.store_k[right]) > APART  # the exponents' reads are apart
 
 
 @pytest.mark.parametrize("cone", [NARROW, WIDE], ids=["narrow", "wide"])
 def test_the_read_looks_up_the_world_direction_of_a_turned_environment(linear_sky, cone):
     right = broadened(50.0, cone)
-    r = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone, chain_exponents=(right,))
+    r = constant_and_k(linear_sky, {"environment.rotation_deg": 37.0}, 50.0, True, cone, read_exponents=(right,))
     assert r.constant == pytest.approx(1.0, rel=0.01)
     assert_k(r, right)
 
@@ -208,11 +209,11 @@ def test_a_wide_cone_reads_the_lobe_broadened_by_its_aperture(linear_sky):
     broadened_exponent(500, (1 + cos 25 deg) / 2) = 18.5, first moment 0.951 (the broad-lobe table's read); the
     chain's read of the lobe about the axis alone (N = 500) is far above it."""
     right = broadened(500.0, WIDE)
-    r = constant_and_k(linear_sky, {}, 500.0, True, WIDE, chain_exponents=(right, 500.0))
+    r = constant_and_k(linear_sky, {}, 500.0, True, WIDE, read_exponents=(right, 500.0))
     assert exact_k(right) < 0.96
     assert r.constant == pytest.approx(1.0, rel=0.01)
     assert_k(r, right)
-    assert r.chain_k[500.0] > r.k + APART
+    assert r.store_k[500.0] > r.k + APART
 
 
 @pytest.mark.parametrize("mean_length", [1.0, 0.99, 0.97])
@@ -224,11 +225,11 @@ def test_spread_normals_broaden_the_lobe_they_reflect(linear_sky, mean_length):
     reads N = 500's broadened lobe (N' = 255), and the spread normals' k is far below that lobe's read."""
     stored = 1.0 - (round(255.0 * math.sqrt(1.0 - mean_length)) / 255.0) ** 2
     right, unspread = broadened(500.0, NARROW, stored), broadened(500.0, NARROW)
-    r = constant_and_k(linear_sky, {}, 500.0, True, NARROW, mean_length, chain_exponents=(right, unspread))
+    r = constant_and_k(linear_sky, {}, 500.0, True, NARROW, mean_length, read_exponents=(right, unspread))
     assert r.constant == pytest.approx(1.0, rel=0.01)
     assert_k(r, right)
     if mean_length < 1.0:
-        assert r.chain_k[unspread] > r.k + APART
+        assert r.store_k[unspread] > r.k + APART
 
 
 def test_control_the_six_face_storage_reads_the_stored_direction_both_ways(linear_sky):

@@ -3,16 +3,16 @@
 A glossy read asks for L_g(r, N) = (N + 1) / (2 pi) int L(w) max(r . w, 0)^N dw: the injection at the surface's own
 exponent, the deferred read at the exponent broadened by the reading cone's aperture and the surfaces' normals
 (vct_trace.glsl), which on the diffuse cones is a few units. A mip chain read at the level whose texel covers the
-lobe's solid angle (McGuire et al. 2013) hands back a texel's box mean instead: for N below 2 it is clamped to a
+lobe's solid angle (McGuire et al. 2013) hands back a texel's box mean instead: for N up to 2 it is clamped to a
 whole cube face, and its footprint is a square, not the lobe's bell. Against the lobe's integral over the texels
 of a level weighted by solid angle (3000 directions, five probes, the chain weighted by solid angle), the chain's
-read misses by 14-92 % RMS of the mean radiance at N = 0-50 (`benchmarks/vct_lobe_table.py`).
+read misses by 14-90 % RMS of the mean radiance at N = 0-50 (`benchmarks/vct_lobe_table.py`).
 
 So the integral itself is tabulated: layer j holds N_j = 2^j - 1 (0, 1, 3, ..., 127) over an equirect grid of lobe
 axes (vct_lobe_axis.glsl), each texel the quadrature of the lobe over a level of the chain weighted by solid
 angle (vct_lobe_table.comp: each texel's mean radiance times its exact solid angle at its centre's direction,
 normalised by the same sum over the lobe, so that a constant environment is exact). A read is bilinear in the
-axis and quadratic in log2(N + 1) through the three nearest layers; above the top layer it blends into the chain
+axis and a cubic in log2(N + 1) through the four layers around it; above the top layer it blends into the chain
 over one octave and reads the chain alone from N = 255 (vct_glossy_env.glsl).
 
 Resolution, against a lobe's angular spread of about sigma = 1 / sqrt(N + 1) rad (5.1 deg at the top layer):
@@ -22,7 +22,7 @@ Resolution, against a lobe's angular spread of about sigma = 1 / sqrt(N + 1) rad
 - the grid's texels, 2.8 deg (128 x 64): bilinear interpolation adds w / sqrt(6) = 1.2 deg in quadrature, 2.5 %
   of the top layer's spread.
 Measured against the lobe's integral over the base level (`benchmarks/vct_lobe_table.py`): at most 3 % RMS of
-the mean radiance for N = 0-50 and 5 % at 127 on the probes, the chain 14-92 %.
+the mean radiance for N = 0-50 and 5 % at 127 on the probes, the chain 14-90 %.
 
 Cost: one pass per layer over the grid, each texel summing its source level (214 M terms a build); 0.9 s on
 llvmpipe (CPU), after each fill of the environment, only for a scene with a glossy surface (1 MiB, RGBA32F).
@@ -35,6 +35,7 @@ import math
 import moderngl
 import numpy as np
 
+from realtime.engine import limits
 from realtime.engine.gpu import EnvironmentFilter, groups, shader_source
 from realtime.engine.technique import set_uniform
 from scenes.environment import cubemap
@@ -77,7 +78,9 @@ class LobeTable:
             texels[..., :3] = cubemap.texel_directions(n)
             texels[..., 3] = cubemap.texel_solid_angles(n)
             self.texels[n] = ctx.buffer(texels.tobytes())
+        limits.clear_errors(ctx)
         self.texture = ctx.texture3d((WIDTH, HEIGHT, LAYERS), 4, dtype="f4")
+        limits.check_created(ctx, "realtime.base_size", "voxel cone tracing's broad-lobe table")
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = True  # the axes' azimuth wraps
         self.texture.repeat_y = self.texture.repeat_z = False
@@ -101,13 +104,10 @@ class LobeTable:
         self.ctx.memory_barrier()
         self.filled = self.env_filter.filled
 
-    def bind(self, prog, unit: int) -> None:
+    def bind(self, prog: moderngl.Program | moderngl.ComputeShader, unit: int) -> None:
+        """The table on texture `unit`, as vct_glossy_env.glsl's sampler `vct_lobe_table`."""
         self.texture.use(unit)
         set_uniform(prog, "vct_lobe_table", unit)
-
-    def read(self) -> np.ndarray:
-        """Tests: the table (LAYERS, HEIGHT, WIDTH, 3)."""
-        return np.frombuffer(self.texture.read(), "f4").reshape(LAYERS, HEIGHT, WIDTH, 4)[..., :3].astype(np.float64)
 
     def release(self) -> None:
         for obj in (*self.texels.values(), self.texture, self.prog):

@@ -32,12 +32,13 @@ Every frame (timed `voxelize`, its mips as `mip`):
 3. injection (inject = 1): each face holds the surface's radiance toward a_f, the paper's reflectance
    (1 - F) kd / pi E V_d + F ks L_g(r) V_g (E the environment's SH9 irradiance, the scene's own when
    `diffuse = "sh"` with the paper's order, otherwise the environment filter's SH9 of the same level; L_g
-   the environment's chain read about the mirror direction r at the level whose texel covers the Phong
-   lobe; V_d the diffuse cones' visibility through the voxels themselves, V_g that of one cone along r with
-   the lobe's half-angle: the direct pass reads every level, the bounce passes mips >= 1, as level 0's
-   radiance is being written). Faced faces carry the full radiance, the others none, each times
-   its axis's coverage (premultiplied; vct_inject.comp derives each). Then the radiance mips. `bounces` = k
-   re-injects k - 1 times, adding what the cones gather from the previous bounce.
+   the environment convolved with the Phong lobe about the mirror direction r (vct_glossy_env.glsl: the
+   broad-lobe table, lobe_table.py, or the environment's chain at the lobe's level); V_d the diffuse cones'
+   visibility through the voxels themselves, V_g that of one cone along r with the lobe's half-angle: the
+   direct pass reads every level, the bounce passes mips >= 1, as level 0's radiance is being written).
+   Faced faces carry the full radiance, the others none, each times its axis's coverage (premultiplied;
+   vct_inject.comp derives each). Then the radiance mips. `bounces` = k re-injects k - 1 times, adding what the
+   cones gather from the previous bounce.
    The deferred glossy read (`deferred_glossy`: a scene with glossy surfaces under the frame's environment
    store, and interreflection on): the faces leave out the glossy term's environment part L_g(r) V_g, and an
    RGBA16F gloss texture holds per face the lobe's weight F ks V_g and its exponent (the six faces side by side
@@ -231,11 +232,11 @@ class VoxelScene:
                  deferred_glossy: bool | None = None) -> None:
         """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
         `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for);
-        `env_filter`: the frame's environment store, whose chain the injection reads for the glossy lobe
-        (None: the SH9 radiance, vct_inject.comp); `deferred_glossy`: the cones evaluate the glossy surfaces'
-        environment term toward themselves (vct_trace.glsl's vct_gloss_radiance) instead of reading it as the
-        faces stored it toward their axes; None: wherever some surface is glossy and the environment store is
-        given (it needs the store's chain)."""
+        `env_filter`: the frame's environment store, from which the glossy reads take the lobe (its broad-lobe
+        table on a cube store, lobe_table.py, and its chain; None: the SH9 radiance, vct_inject.comp);
+        `deferred_glossy`: the cones evaluate the glossy surfaces' environment term toward themselves
+        (vct_trace.glsl's vct_gloss_radiance) instead of reading it as the faces stored it toward their axes;
+        None: wherever some surface is glossy and the environment store is given (it needs the store's chain)."""
         self.ctx = ctx
         self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
         lo, hi = scene_bounds(objects)
@@ -537,15 +538,18 @@ class VoxelScene:
         set_uniform(prog, "vct_cone_tan", math.tan(cones.half_angle))
 
     def bind_environment(self, prog, unit: int = ENV_UNIT) -> None:
-        """The environment's chain that vct_glossy_env.glsl reads (the injection's glossy lobe, the deferred glossy
-        read), on `unit`: on the cube, the chain weighted by solid angle (EnvironmentFilter.solid_angle_chain;
-        the read divides rgb by a), since these reads span up to a whole face, where the paper's box chain misses
-        the face's mean radiance; a 2D store's own chain (env_map.glsl). A scene without a glossy surface reads
-        none: the paper's cube is bound to the sampler as it stands, and the weighted chain is not built."""
+        """What vct_glossy_env.glsl reads (the injection's glossy lobe, the deferred glossy read): on `unit` the
+        environment's chain, on the cube the chain weighted by solid angle (EnvironmentFilter.solid_angle_chain;
+        the read divides rgb by a), where the paper's box chain misses a face's mean radiance at its coarse
+        levels, and on LOBE_UNIT the broad-lobe table (lobe_table.py) the lobes below N = 255 come from; a 2D
+        store's own chain (env_map.glsl). A scene without a glossy surface reads none: the paper's cube is bound
+        to the sampler as it stands, and neither the weighted chain nor the table is built. Both are refreshed
+        here if the store was filled since (normally done at the start of `update`)."""
         if isinstance(self.env_filter, EnvironmentFilter) and self.reads_environment:
             self.env_filter.solid_angle_chain().use(unit)
             set_uniform(prog, "vct_env_cube", unit)
             if self.lobe_table is not None:
+                self.lobe_table.build()
                 self.lobe_table.bind(prog, LOBE_UNIT)
         else:
             self.env_filter.bind_lookup(prog, unit, cube_uniform="vct_env_cube")

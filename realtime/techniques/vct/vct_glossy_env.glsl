@@ -3,9 +3,9 @@
 // (vct_inject.comp); the deferred glossy read (VCT_GLOSS_READ, vct_trace.glsl) reads it toward each cone, broadened
 // to a few units of N on the diffuse cones. Included once per shader.
 // - On a cube store (VCT_LOBE_TABLE): the lobe's integral tabulated for N = 2^j - 1, j = 0..7
-//   (lobe_table.py), read quadratically in j = log2(N + 1) through the three nearest layers; above the top layer
+//   (lobe_table.py), read as a cubic in j = log2(N + 1) through the four layers around it; above the top layer
 //   (127) blended into the chain over one octave, the chain alone from 255. A chain's texel is a box mean, not
-//   the lobe: its read misses the lobe's integral by 14-92 % RMS of the mean radiance for N = 0-50 on the
+//   the lobe: its read misses the lobe's integral by 14-90 % RMS of the mean radiance for N = 0-50 on the
 //   probes, the table's by at most 3 % up to 50 (benchmarks/vct_lobe_table.py).
 // - The chain (vct_chain_env; a 2D store always): the environment's mip chain (on the cube the chain weighted by
 //   solid angle; a 2D parameterization's own through env_map.glsl) at the level whose texel covers the lobe's
@@ -36,23 +36,30 @@ vec3 vct_chain_env(vec3 r, float N) {
 }
 
 #ifdef VCT_LOBE_TABLE
-// Each layer is a smooth function of N (its SH band factors are rational in N), so the read is quadratic in j
-// through the three layers nearest it (Lagrange weights; linear interpolation had missed by 5-6 % RMS at N = 2-4
-// under Ennis, between layers); bilinear in the axis (vct_lobe_axis.glsl's grid).
+// Each layer is a smooth function of N (the lobe's SH band factors are rational in N), so the read is a cubic in
+// j = log2(N + 1) through the four layers around it (Lagrange weights at nodes -1, 0, 1, 2): it passes through every
+// layer, so it is continuous where j crosses one and the four change. Linear interpolation had missed by 5-6 % RMS
+// at N = 2-4 under Ennis, between layers; a quadratic through the nearest three jumped by up to 1.7 % where the
+// nearest three change. Bilinear in the axis (vct_lobe_axis.glsl's grid; the table has no mips).
 #include "vct_lobe_axis.glsl"
 uniform sampler3D vct_lobe_table;
 const float VCT_LOBE_LAYERS = 8.0;  // lobe_table.LAYERS
+
+vec3 vct_lobe_layer(vec2 uv, float layer) {
+    return textureLod(vct_lobe_table, vec3(uv, (layer + 0.5) / VCT_LOBE_LAYERS), 0.0).rgb;
+}
+
 vec3 vct_glossy_env(vec3 r, float N) {
     float j = log2(max(N, 0.0) + 1.0);
-    float past = clamp(j - (VCT_LOBE_LAYERS - 1.0), 0.0, 1.0);
+    float past = clamp(j - (VCT_LOBE_LAYERS - 1.0), 0.0, 1.0);  // 0 up to the top layer, 1 an octave above it
     vec3 table = vec3(0.0);
     if (past < 1.0) {
-        float k = clamp(floor(j + 0.5), 1.0, VCT_LOBE_LAYERS - 2.0), x = min(j, VCT_LOBE_LAYERS - 1.0) - k;
+        float m = clamp(floor(j), 1.0, VCT_LOBE_LAYERS - 3.0), x = min(j, VCT_LOBE_LAYERS - 1.0) - m;
         vec2 uv = vct_lobe_uv(r);
-        vec3 a = texture(vct_lobe_table, vec3(uv, (k - 0.5) / VCT_LOBE_LAYERS)).rgb;
-        vec3 b = texture(vct_lobe_table, vec3(uv, (k + 0.5) / VCT_LOBE_LAYERS)).rgb;
-        vec3 c = texture(vct_lobe_table, vec3(uv, (k + 1.5) / VCT_LOBE_LAYERS)).rgb;
-        table = max(0.5 * x * (x - 1.0) * a + (1.0 - x * x) * b + 0.5 * x * (x + 1.0) * c, vec3(0.0));
+        table = max(-x * (x - 1.0) * (x - 2.0) / 6.0 * vct_lobe_layer(uv, m - 1.0)
+                    + (x + 1.0) * (x - 1.0) * (x - 2.0) / 2.0 * vct_lobe_layer(uv, m)
+                    - (x + 1.0) * x * (x - 2.0) / 2.0 * vct_lobe_layer(uv, m + 1.0)
+                    + (x + 1.0) * x * (x - 1.0) / 6.0 * vct_lobe_layer(uv, m + 2.0), vec3(0.0));
     }
     return past > 0.0 ? mix(table, vct_chain_env(r, N), past) : table;
 }

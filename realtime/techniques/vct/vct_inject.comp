@@ -69,8 +69,8 @@ void put_gloss(int f, ivec3 q, vec4 value) {
 const float PI = 3.14159265358979323846;
 
 // L_g(r): the environment convolved with the normalised Phong lobe of exponent N about r.
-// VCT_GLOSSY_ENV (the frame's injection): the environment's mip chain at the lobe's level, on the cube the chain
-// weighted by solid angle (vct_glossy_env.glsl). SH9 cannot stand in for a narrow lobe: its order-2 projection spreads a bright window
+// VCT_GLOSSY_ENV (the frame's injection): vct_glossy_env.glsl (on a cube store the broad-lobe table below N = 255,
+// else the environment's mip chain at the lobe's level, on the cube the chain weighted by solid angle). SH9 cannot stand in for a narrow lobe: its order-2 projection spreads a bright window
 // over the whole sphere (a Phong torus (N = 50) under the Ennis probe, its second bounce traced in numpy: twice
 // the radiance of the same bounce under the environment itself).
 // Otherwise (a voxel scene made without the frame's environment store: tests) the SH9 radiance convolved

@@ -1,9 +1,9 @@
 #version 430
 // The environment convolved with normalised Phong lobes of broad exponents (lobe_table.py's LobeTable), one
 // layer per exponent N_j = 2^j - 1, each layer an equirect grid of lobe axes r:
-//     L_g(r, N) = sum_k L_k w_k (r . w_k)^N / sum_k w_k (r . w_k)^N   over the texels k with r . w_k > 0,
+//     L_g(r, N) = sum_k L_k W_k (r . d_k)^N / sum_k W_k (r . d_k)^N   over the texels k with r . d_k > 0,
 // the quadrature over a level of the environment's chain weighted by solid angle (its rgb / a the texel's mean
-// radiance, w_k its exact solid angle, w_k its centre's direction). Normalising by the discrete sum keeps a
+// radiance L_k, W_k its exact solid angle, d_k its centre's direction). Normalising by the discrete sum keeps a
 // constant environment's value exact; the integral it stands for is (N + 1) / (2 pi) int L(w) (r . w)^N dw
 // over the hemisphere about r.
 layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;

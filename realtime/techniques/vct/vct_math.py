@@ -486,6 +486,10 @@ def lobe_integrals(faces: np.ndarray, axes: np.ndarray, exponent: float, size: i
     the same sum, exact for a constant environment). The reference the broad-lobe table (lobe_table.py) is
     measured against, at a finer source than the table's."""
     dirs, w, radiance = reduced_faces(faces, size)
-    c = np.asarray(axes, dtype=np.float64) @ dirs.T
-    lobe = np.where(c > 0.0, np.maximum(c, 0.0) ** exponent, 0.0) * w
-    return (lobe @ radiance) / lobe.sum(axis=1, keepdims=True)
+    axes = np.asarray(axes, dtype=np.float64)
+    out = np.empty((len(axes), 3))
+    for i in range(0, len(axes), 256):  # (256, 6 size^2) at a time
+        c = axes[i:i + 256] @ dirs.T
+        lobe = np.where(c > 0.0, np.maximum(c, 0.0) ** exponent, 0.0) * w
+        out[i:i + 256] = (lobe @ radiance) / lobe.sum(axis=1, keepdims=True)
+    return out

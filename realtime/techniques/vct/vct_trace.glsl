@@ -105,7 +105,8 @@ float vct_reflection_spread_mean_cos(float mean_length) {
 
 // The normalised Phong lobe of exponent N (mean cosine (N + 1) / (N + 2)) convolved with a spread of mean cosine
 // `spread_mean_cos`: the Phong lobe of mean cosine mu = (N + 1) / (N + 2) spread_mean_cos, N' = (2 mu - 1) /
-// (1 - mu), whose chain level covers it (vct_math.broadened_exponent); broader than the cosine lobe (mu <= 1/2), 0.
+// (1 - mu), the lobe vct_glossy_env.glsl reads (vct_math.broadened_exponent); broader than the cosine lobe
+// (mu <= 1/2), 0.
 float vct_broadened_exponent(float N, float spread_mean_cos) {
     float mu = (N + 1.0) / (N + 2.0) * spread_mean_cos;
     return mu <= 0.5 ? 0.0 : (2.0 * mu - 1.0) / (1.0 - mu);
