@@ -6,7 +6,7 @@ exponent, the deferred read at the exponent broadened by the reading cone's aper
 lobe's solid angle (McGuire et al. 2013) hands back a texel's box mean instead: for N up to 2 it is clamped to a
 whole cube face, and its footprint is a square, not the lobe's bell. Against the lobe's integral over the texels
 of a level weighted by solid angle (3000 directions, five probes, the chain weighted by solid angle), the chain's
-read misses by 14-90 % RMS of the mean radiance at N = 0-50 (`benchmarks/vct_lobe_table.py`).
+read misses by 13-90 % RMS of the mean radiance at N = 0-50 (`benchmarks/vct_lobe_table.py`).
 
 So the integral itself is tabulated: layer j holds N_j = 2^j - 1 (0, 1, 3, ..., 127) over an equirect grid of lobe
 axes (vct_lobe_axis.glsl), each texel the quadrature of the lobe over a level of the chain weighted by solid
@@ -22,7 +22,7 @@ Resolution, against a lobe's angular spread of about sigma = 1 / sqrt(N + 1) rad
 - the grid's texels, 2.8 deg (128 x 64): bilinear interpolation adds w / sqrt(6) = 1.2 deg in quadrature, 2.5 %
   of the top layer's spread.
 Measured against the lobe's integral over the base level (`benchmarks/vct_lobe_table.py`): at most 3 % RMS of
-the mean radiance for N = 0-50 and 5 % at 127 on the probes, the chain 14-90 %.
+the mean radiance for N = 0-50 and 5 % at 127 on the probes, the chain 13-90 %.
 
 Cost: one pass per layer over the grid, each texel summing its source level (214 M terms a build); 0.9 s on
 llvmpipe (CPU), after each fill of the environment, only for a scene with a glossy surface (1 MiB, RGBA32F).

@@ -5,7 +5,7 @@
 // - On a cube store (VCT_LOBE_TABLE): the lobe's integral tabulated for N = 2^j - 1, j = 0..7
 //   (lobe_table.py), read as a cubic in j = log2(N + 1) through the four layers around it; above the top layer
 //   (127) blended into the chain over one octave, the chain alone from 255. A chain's texel is a box mean, not
-//   the lobe: its read misses the lobe's integral by 14-90 % RMS of the mean radiance for N = 0-50 on the
+//   the lobe: its read misses the lobe's integral by 13-90 % RMS of the mean radiance for N = 0-50 on the
 //   probes, the table's by at most 3 % up to 50 (benchmarks/vct_lobe_table.py).
 // - The chain (vct_chain_env; a 2D store always): the environment's mip chain (on the cube the chain weighted by
 //   solid angle; a 2D parameterization's own through env_map.glsl) at the level whose texel covers the lobe's
