@@ -38,7 +38,7 @@ vec3 vct_chain_env(vec3 r, float N) {
 #ifdef VCT_LOBE_TABLE
 // Each layer is a smooth function of N (the lobe's SH band factors are rational in N), so the read is a cubic in
 // j = log2(N + 1) through the four layers around it (Lagrange weights at nodes -1, 0, 1, 2): it passes through every
-// layer, so it is continuous where j crosses one and the four change. Linear interpolation had missed by 5-6 % RMS
+// layer, so it is continuous where j crosses one and the four change. Linear interpolation had missed by 4-6 % RMS
 // at N = 2-4 under Ennis, between layers; a quadratic through the nearest three jumped by up to 1.7 % where the
 // nearest three change. Bilinear in the axis (vct_lobe_axis.glsl's grid; the table has no mips).
 #include "vct_lobe_axis.glsl"
