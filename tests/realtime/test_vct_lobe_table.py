@@ -65,10 +65,6 @@ def read(env: np.ndarray, axes: np.ndarray, exponents: np.ndarray, base: int = 1
         f.release()
 
 
-def test_layers_hold_exponents_2_to_the_j_minus_1():
-    assert lobe_table.layer_exponents().tolist() == [0, 1, 3, 7, 15, 31, 63, 127]
-
-
 @pytest.mark.parametrize(("exponent", "base", "size"), [(0, 256, 16), (15, 256, 16), (16, 256, 32), (127, 256, 32),
                                                         (127, 16, 16), (0, 8, 8)])
 def test_a_layers_source_texels_are_at_most_half_its_lobes_spread(exponent, base, size):

@@ -56,6 +56,11 @@ def layer_exponents() -> np.ndarray:
     return 2.0 ** np.arange(LAYERS) - 1.0
 
 
+def defines() -> tuple[str, ...]:
+    """What a shader that reads the table (vct_glossy_env.glsl) is compiled with: the layer count lives here only."""
+    return ("VCT_LOBE_TABLE", f"VCT_LOBE_LAYERS {LAYERS}.0")
+
+
 def source_size(exponent: float, base_size: int) -> int:
     """The faces' size of the level a layer sums: texels no wider than half the lobe's spread,
     2 / s <= 1 / (2 sqrt(N + 1)) rad at a face's centre (s >= 4 sqrt(N + 1), a power of two in
@@ -95,11 +100,12 @@ class LobeTable:
         self.texture.bind_to_image(1, read=False, write=True)
         self.prog["table_size"] = (WIDTH, HEIGHT)
         base = self.env_filter.base_size
-        for layer, size in enumerate(self.sizes):
+        for layer, (size, exponent) in enumerate(zip(self.sizes, layer_exponents(), strict=True)):
             chain.bind_to_image(0, read=True, write=False, level=int(math.log2(base // size)))
             self.texels[size].bind_to_storage_buffer(0)
             set_uniform(self.prog, "src_size", size)
             set_uniform(self.prog, "layer", layer)
+            set_uniform(self.prog, "exponent", float(exponent))
             self.prog.run(groups(WIDTH), groups(HEIGHT), 1)
         self.ctx.memory_barrier()
         self.filled = self.env_filter.filled

@@ -93,7 +93,7 @@ import numpy as np
 from realtime.engine import limits
 from realtime.engine.gpu import EnvironmentFilter, shader_source
 from realtime.engine.technique import Frame, Technique, set_uniform
-from realtime.techniques.vct import vct_math
+from realtime.techniques.vct import lobe_table, vct_math
 from realtime.techniques.vct.lobe_table import LobeTable
 from scenes.model import materials
 
@@ -301,7 +301,7 @@ class VoxelScene:
         self.lobe_table = (LobeTable(ctx, env_filter)
                            if self.reads_environment and isinstance(env_filter, EnvironmentFilter) else None)
         self.env_defines = () if env_filter is None else (
-            "VCT_GLOSSY_ENV", *env_filter.lookup_defines(), *(("VCT_LOBE_TABLE",) if self.lobe_table else ()))
+            "VCT_GLOSSY_ENV", *env_filter.lookup_defines(), *(lobe_table.defines() if self.lobe_table else ()))
         env_defines = self.env_defines
         #: what every program that reads the cones' radiance (vct_trace.glsl) is compiled with: the shading pass's
         #: too. The injection's direct pass uses the cones' opacities only, so its program stores the gloss
@@ -671,7 +671,7 @@ class VoxelScene:
         without the broad-lobe table (the measure it is checked against)."""
         if self.env_filter is None:
             raise ValueError("reading the environment's chain needs the frame's environment store (env_filter)")
-        defines = self.env_defines if table else tuple(d for d in self.env_defines if d != "VCT_LOBE_TABLE")
+        defines = self.env_defines if table else tuple(d for d in self.env_defines if d not in lobe_table.defines())
         prog = self.env_probe_progs.get(defines)
         if prog is None:
             prog = self.env_probe_progs[defines] = self.ctx.compute_shader(

@@ -43,7 +43,9 @@ vec3 vct_chain_env(vec3 r, float N) {
 // nearest three change. Bilinear in the axis (vct_lobe_axis.glsl's grid; the table has no mips).
 #include "vct_lobe_axis.glsl"
 uniform sampler3D vct_lobe_table;
-const float VCT_LOBE_LAYERS = 8.0;  // lobe_table.LAYERS
+#ifndef VCT_LOBE_LAYERS
+#error "VCT_LOBE_TABLE needs VCT_LOBE_LAYERS (lobe_table.defines)"
+#endif
 
 vec3 vct_lobe_layer(vec2 uv, float layer) {
     return textureLod(vct_lobe_table, vec3(uv, (layer + 0.5) / VCT_LOBE_LAYERS), 0.0).rgb;

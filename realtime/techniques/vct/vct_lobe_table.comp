@@ -12,6 +12,7 @@ layout(rgba32f, binding = 1) uniform writeonly image3D table;     // (width, hei
 layout(std430, binding = 0) readonly buffer Texels { vec4 texels[]; };  // the level's (direction, solid angle)
 uniform int src_size;
 uniform int layer;
+uniform float exponent;  // the layer's Phong exponent (lobe_table.layer_exponents)
 uniform ivec2 table_size;
 #include "vct_lobe_axis.glsl"
 
@@ -19,7 +20,7 @@ void main() {
     ivec2 g = ivec2(gl_GlobalInvocationID.xy);
     if (any(greaterThanEqual(g, table_size))) return;
     vec3 r = vct_lobe_axis((vec2(g) + 0.5) / vec2(table_size));
-    float N = exp2(float(layer)) - 1.0;
+    float N = exponent;
     vec3 sum = vec3(0.0);
     float norm = 0.0;
     int n = src_size * src_size;

@@ -482,9 +482,9 @@ def reduced_faces(faces: np.ndarray, size: int) -> tuple[np.ndarray, np.ndarray,
 def lobe_integrals(faces: np.ndarray, axes: np.ndarray, exponent: float, size: int = 64) -> np.ndarray:
     """(n, 3) the normalised Phong lobe's integral of a cube environment, (N + 1) / (2 pi) int L(w)
     max(r . w, 0)^N dw, about each axis r (n, 3), by quadrature in float64 over the cube `faces` reduced to `size`
-    texels a face: sum_k L_k W_k (r . w_k)^N / sum_k W_k (r . w_k)^N over the texels in front of r (normalised by
-    the same sum, exact for a constant environment). The reference the broad-lobe table (lobe_table.py) is
-    measured against, at a finer source than the table's."""
+    texels a face: sum_k L_k W_k (r . d_k)^N / sum_k W_k (r . d_k)^N over the texels k in front of r (d_k their
+    centres' directions, W_k their solid angles; normalised by the same sum, exact for a constant environment).
+    The reference the broad-lobe table (lobe_table.py) is measured against, at a finer source than the table's."""
     dirs, w, radiance = reduced_faces(faces, size)
     axes = np.asarray(axes, dtype=np.float64)
     out = np.empty((len(axes), 3))
