@@ -9,6 +9,7 @@ import numpy as np
 from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
+from scenes.environment.directions import equirect_directions
 from scenes.model.scene import Scene
 
 
@@ -94,3 +95,15 @@ def scene_voxels(ctx, scene: Scene, resolution: int, objects: list | None = None
     vs.update(None, env.sh_buffer)
     env.release()
     return vs
+
+
+#: the cap maps' half-angle: inside the cube face about the cap's axis (whose edges are 45 degrees from its centre)
+CAP_HALF_ANGLE = np.radians(20.0)
+
+
+def cap_map(axis=(0.0, 1.0, 0.0), height: int = 512) -> np.ndarray:
+    """An equirect map (H, 2H, 3) of radiance 1 with a cap of CAP_HALF_ANGLE about `axis` at 11, whose lobe
+    integrals and face means have closed forms."""
+    inside = equirect_directions(height, 2 * height) @ np.asarray(axis, dtype=np.float64) > np.cos(CAP_HALF_ANGLE)
+    return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
+

@@ -15,7 +15,7 @@ import pytest
 
 from realtime.engine.context import get_context
 from realtime.engine.gpu import EnvironmentFilter
-from scenes.environment.directions import equirect_directions
+from tests.helpers import CAP_HALF_ANGLE, cap_map
 
 pytestmark = pytest.mark.gl
 
@@ -25,7 +25,7 @@ _spec = importlib.util.spec_from_file_location("env_chain_solid_angle",
 bench = importlib.util.module_from_spec(_spec)
 _spec.loader.exec_module(bench)
 
-CAP = math.radians(20.0)
+CAP = float(CAP_HALF_ANGLE)
 
 
 def means(env: np.ndarray) -> list[tuple[int, float, float]]:
@@ -47,9 +47,7 @@ def test_a_constant_map_keeps_its_mean_in_both_chains():
 
 
 def test_a_cap_at_a_faces_centre_is_missed_by_the_box_chain_only():
-    d = equirect_directions(512, 1024)
-    env = np.repeat(np.where(d[..., 1] > math.cos(CAP), 11.0, 1.0)[..., None], 3, axis=-1)
-    rows = means(env)
+    rows = means(cap_map())
     sphere = 1.0 + 5.0 * (1.0 - math.cos(CAP))
     box_top = (5.0 + 1.0 + 10.0 * math.pi * math.tan(CAP) ** 2 / 4.0) / 6.0 / sphere  # 0.902
     assert rows[-1][1] == pytest.approx(box_top, rel=0.01)

@@ -22,21 +22,14 @@ from realtime.engine.context import get_context
 from realtime.engine.gpu import EnvironmentFilter
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import cubemap
-from scenes.environment.directions import equirect_directions
+from tests.helpers import CAP_HALF_ANGLE, cap_map
 
 pytestmark = pytest.mark.gl
 
 BASE = 128
-CAP_COS = math.cos(math.radians(20.0))
+CAP_COS = math.cos(CAP_HALF_ANGLE)
 FACE_MEAN = 1.0 + 30.0 * (1.0 - CAP_COS)  # 2.809
-BOX_MEAN = 1.0 + 10.0 * math.pi * math.tan(math.radians(20.0)) ** 2 / 4.0  # 2.041
-
-
-def cap_map(axis: tuple[float, float, float], height: int = 512) -> np.ndarray:
-    """The equirect map (H, 2H, 3): 11 within 20 degrees of `axis`, else 1."""
-    d = equirect_directions(height, 2 * height)
-    inside = d @ np.asarray(axis, dtype=np.float64) > CAP_COS
-    return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
+BOX_MEAN = 1.0 + 10.0 * math.pi * math.tan(CAP_HALF_ANGLE) ** 2 / 4.0  # 2.041
 
 
 def face_of(direction: tuple[float, float, float]) -> int:

@@ -29,15 +29,9 @@ from realtime.techniques.vct import lobe_table
 from realtime.techniques.vct.vct import VoxelScene
 from realtime.techniques.vct.vct_math import lobe_integrals, reduced_faces
 from scenes.environment import environments
-from scenes.environment.directions import equirect_directions
+from tests.helpers import CAP_HALF_ANGLE, cap_map
 
-CAP = math.radians(20.0)
-
-
-def cap_map(height: int = 512) -> np.ndarray:
-    """The equirect map (H, 2H, 3): 11 within 20 degrees of +y, else 1."""
-    inside = equirect_directions(height, 2 * height)[..., 1] > math.cos(CAP)
-    return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
+CAP = float(CAP_HALF_ANGLE)
 
 
 def along_y(n: float) -> float:
