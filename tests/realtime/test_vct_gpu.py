@@ -335,6 +335,46 @@ def test_frame_reports_voxelize_mip_memory_and_bounce_adds_light():
     assert both.rgb[m].mean() > occ.rgb[m].mean()
 
 
+@pytest.mark.parametrize("spec,bounces", [("builtin:torus-phong", 1), ("builtin:sphere-on-plane", 2)])
+def test_occlusion_alone_injects_no_light_and_draws_the_same_image(monkeypatch, spec, bounces):
+    """Occlusion reads the voxels' opacities only, which the occupancy pass writes: the same frame with the light
+    passes run (and the glossy scene's weighted chain and broad-lobe table built) draws the same image, bit for
+    bit, and the run without them runs none of them."""
+    scene = scenes.load(spec).with_overrides({
+        "camera.width": 48, "camera.height": 48, "realtime.timing_frames": 1, "realtime.warmup_frames": 0,
+        "realtime.occlusion": "vct", "realtime.vct.resolution": 32, "realtime.vct.cascades": 2,
+        "realtime.vct.bounces": bounces})
+    modes: list[int] = []
+    tables: list[object] = []
+    inject = VoxelScene.inject
+
+    def spy(self, cascade, mode, sh_buffer):
+        modes.append(mode)
+        tables.append(self.lobe_table)
+        inject(self, cascade, mode, sh_buffer)
+
+    monkeypatch.setattr(VoxelScene, "inject", spy)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        alone = realtime.render(scene)
+        alone_modes, modes[:] = sorted(set(modes)), []
+        alone_tables, tables[:] = set(map(id, tables)), []
+
+        class WithLight(VoxelScene):
+            def __init__(self, *args, **kwargs) -> None:
+                super().__init__(*args, **{**kwargs, "radiance": True})
+
+        monkeypatch.setattr(vct, "VoxelScene", WithLight)
+        lit = realtime.render(scene)
+    assert alone.meta["vct"]["radiance_injected"] is False and lit.meta["vct"]["radiance_injected"] is True
+    assert alone_modes == [0] and alone_tables == {id(None)}
+    # the control: the forced run did inject light (every bounce) and, on the glossy scene, built the table
+    assert sorted(set(modes)) == ([0, 1] if bounces == 1 else [0, 1, 2])
+    assert any(t is not None for t in tables) == (spec == "builtin:torus-phong")
+    assert np.array_equal(alone.mask, lit.mask)
+    assert np.array_equal(alone.rgb, lit.rgb)
+
+
 AXES = [(a, s) for a in range(3) for s in (1, -1)]
 
 

@@ -48,6 +48,8 @@ Every frame (timed `voxelize`, its mips as `mip`):
    blend of six reflections; the lobe it reads broadened by the cone's aperture and by the spread of the
    normals the face stands for (the stored l), so that a cone reads the mean of the reflections over its
    directions and the texel's surfaces, not one sharp lobe.
+   Occlusion alone (no `interreflection = "vct"`) reads the voxels' opacities only, all written in step 2: step 3,
+   its SH9 projection and the environment's reads behind the glossy lobe are not run (`radiance`).
 
 Shading (vct.glsl in shade.frag): occlusion multiplies the environment's diffuse irradiance by the diffuse
 cones' cosine-weighted visibility and its glossy radiance by the glossy cone's (half-angle from the Phong
@@ -229,15 +231,20 @@ class VoxelScene:
 
     def __init__(self, ctx: moderngl.Context, objects, resolution: int, cascades: int, diffuse_cones: int,
                  step: float, bounces: int = 1, grid: vct_math.Cascades | None = None, env_filter=None,
-                 deferred_glossy: bool | None = None) -> None:
+                 deferred_glossy: bool | None = None, radiance: bool = True) -> None:
         """`bounces`: injections per frame (1: direct light; k: k - 1 gathered bounces re-injected);
         `grid`: the cascades (default: centred on the objects' bounding box, vct_math.cascades_for);
         `env_filter`: the frame's environment store, from which the glossy reads take the lobe (its broad-lobe
         table on a cube store, lobe_table.py, and its chain; None: the SH9 radiance, vct_inject.comp);
         `deferred_glossy`: the cones evaluate the glossy surfaces' environment term toward themselves
         (vct_trace.glsl's vct_gloss_radiance) instead of reading it as the faces stored it toward their axes;
-        None: wherever some surface is glossy and the environment store is given (it needs the store's chain)."""
+        None: wherever some surface is glossy and the environment store is given (it needs the store's chain);
+        `radiance`: whether some cone reads the voxels' radiance (interreflection). Occlusion alone reads their
+        opacities only, which the occupancy pass writes (vct_inject.comp, inject = 0) and the injection's light
+        passes leave as they are: without `radiance` those passes, the environment's reads behind them (the
+        weighted chain, the broad-lobe table) and their SH9 projection are not run."""
         self.ctx = ctx
+        self.radiance = radiance
         self.resolution, self.count, self.step, self.bounces = resolution, cascades, float(step), bounces
         lo, hi = scene_bounds(objects)
         self.grid = grid or vct_math.cascades_for(lo, hi, resolution, cascades)
@@ -278,12 +285,14 @@ class VoxelScene:
         self.mip_levels = self.grid.levels
         here = __package__
         refl = [reflectance_of(o.material) for o in objects]
-        #: whether a shader reads the environment's chain: only a glossy surface's lobe does
-        self.reads_environment = env_filter is not None and has_glossy(refl)
+        #: whether a shader reads the environment's chain: only a glossy surface's lobe does, in the light passes
+        self.reads_environment = radiance and env_filter is not None and has_glossy(refl)
         if deferred_glossy is None:
             deferred_glossy = self.reads_environment
         if deferred_glossy and env_filter is None:
             raise ValueError("the deferred glossy read needs the frame's environment store (env_filter)")
+        if deferred_glossy and not radiance:
+            raise ValueError("the deferred glossy read is a read of the voxels' radiance (radiance is off)")
         self.gloss = None  # the deferred glossy read's texture (deferred_glossy: whether there is one)
         if deferred_glossy:
             # the six faces side by side along x, face f at x in [f R_L, (f + 1) R_L) of every level L
@@ -337,7 +346,8 @@ class VoxelScene:
         return (time.perf_counter() - t0) * 1e3
 
     def update(self, frame: Frame | None, sh_buffer: moderngl.Buffer) -> None:
-        """Voxelise, inject and mipmap (once per frame number; `frame` None: always)."""
+        """Voxelise, inject and mipmap (once per frame number; `frame` None: always); without `radiance` the
+        occupancy pass and the mips of its opacities only."""
         if frame is not None and self.updated_frame == frame.number:
             return
         self.updated_frame = None if frame is None else frame.number
@@ -357,7 +367,8 @@ class VoxelScene:
         t0 = time.perf_counter()
         self.build_mips()
         mip_ms += self._finish_ms(t0)
-        for bounce in range(1, self.bounces + 1):
+        light_passes = self.bounces if self.radiance else 0
+        for bounce in range(1, light_passes + 1):
             for c in range(self.count):
                 self.inject(c, 1 if bounce == 1 else 2, sh_buffer)
             ctx.finish()
@@ -717,7 +728,8 @@ class VoxelScene:
                         "single_texture_resolution": g.resolution << (g.count - 1),
                         "scratch_bytes": sum(b.size for pair in self.scratch for b in pair),
                         "triangles": self.triangle_count,
-                        "bounces": self.bounces, "radiance_scale": self.radiance_scale}}
+                        "bounces": self.bounces, "radiance_scale": self.radiance_scale,
+                        "radiance_injected": self.radiance}}
 
     def release(self) -> None:
         scratch = [b for pair in self.scratch for b in pair]
@@ -742,11 +754,12 @@ def shared_voxels(frame: Frame) -> VoxelScene:
     if "vct" not in frame.shared:
         rt = frame.scene.realtime
         v = rt.vct
-        # occlusion alone reads the cones' opacities only, and the direct pass stores nothing a glossy read needs
-        deferred = None if rt.interreflection == "vct" and v.glossy_read == "deferred" else False
+        # occlusion alone reads the cones' opacities only: no light is injected, no glossy read stored
+        radiance = rt.interreflection == "vct"
+        deferred = None if radiance and v.glossy_read == "deferred" else False
         frame.shared["vct"] = VoxelScene(frame.ctx, frame.scene.objects, v.resolution, v.cascades,
                                          v.diffuse_cones, v.step, bounces=v.bounces, env_filter=frame.env_filter,
-                                         deferred_glossy=deferred)
+                                         deferred_glossy=deferred, radiance=radiance)
     return frame.shared["vct"]
 
 
@@ -768,7 +781,9 @@ class _VctEffect(Technique):
 
     def update(self, frame: Frame) -> None:
         before = self.voxels.updated_frame
-        self.voxels.update(frame, sh_source(frame) if before != frame.number else frame.env_filter.sh_buffer)
+        # the SH9 the light passes inject by, projected once a frame, by whichever effect updates the voxels first
+        project = self.voxels.radiance and before != frame.number
+        self.voxels.update(frame, sh_source(frame) if project else frame.env_filter.sh_buffer)
         self._split = dict(self.voxels.split) if before != frame.number else {}
 
     def split_timings(self) -> dict[str, float]:
