@@ -17,6 +17,7 @@
 - a lit plane seen from its front reads its radiance even on an axis where the face read is its back, and
   a wall lit on one side, seen obliquely from its dark side, reads dark;
 - the frame reports `voxelize` and `mip`, the voxel memory, and interreflection only adds light;
+- occlusion alone runs no light pass and draws, bit for bit, the image the same frame draws with them run;
 - opacity: a tilted plane covers each axis by |n_a| / |n|_inf; layers of normal y cut a cone by the same
   product at any angle; a cone alongside a wall passes; the column texture keeps a texel's most covered
   column, and the finer read counts its own texel's length; a closed thin-walled box leaks under 1 %;
@@ -346,19 +347,34 @@ def test_occlusion_alone_injects_no_light_and_draws_the_same_image(monkeypatch, 
         "realtime.vct.bounces": bounces})
     modes: list[int] = []
     tables: list[object] = []
+    lit_rgb: list[float] = []  # after each light pass: the brightest radiance its faces hold
+    calls = {"solid_angle_chain": 0, "sh_source": 0}
     inject = VoxelScene.inject
 
     def spy(self, cascade, mode, sh_buffer):
         modes.append(mode)
         tables.append(self.lobe_table)
         inject(self, cascade, mode, sh_buffer)
+        if mode > 0:
+            lit_rgb.append(float(self.read_faces(0)[..., :3].max()))
+
+    def counted(owner, name):
+        function = getattr(owner, name)
+
+        def call(*args, **kwargs):
+            calls[name] += 1
+            return function(*args, **kwargs)
+        monkeypatch.setattr(owner, name, call)
 
     monkeypatch.setattr(VoxelScene, "inject", spy)
+    counted(gpu.EnvironmentFilter, "solid_angle_chain")
+    counted(vct, "sh_source")  # the SH9 the light passes inject by (projected there unless the scene's own)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         alone = realtime.render(scene)
         alone_modes, modes[:] = sorted(set(modes)), []
         alone_tables, tables[:] = set(map(id, tables)), []
+        alone_calls = dict(calls)
 
         class WithLight(VoxelScene):
             def __init__(self, *args, **kwargs) -> None:
@@ -368,9 +384,14 @@ def test_occlusion_alone_injects_no_light_and_draws_the_same_image(monkeypatch, 
         lit = realtime.render(scene)
     assert alone.meta["vct"]["radiance_injected"] is False and lit.meta["vct"]["radiance_injected"] is True
     assert alone_modes == [0] and alone_tables == {id(None)}
-    # the control: the forced run did inject light (every bounce) and, on the glossy scene, built the table
+    assert alone_calls == {"solid_angle_chain": 0, "sh_source": 0}
+    # the control: the forced run did inject light (every bounce) that reached the faces' rgb, and on the glossy
+    # scene built the table over the weighted chain
     assert sorted(set(modes)) == ([0, 1] if bounces == 1 else [0, 1, 2])
-    assert any(t is not None for t in tables) == (spec == "builtin:torus-phong")
+    assert min(lit_rgb) > 0.0
+    glossy = spec == "builtin:torus-phong"
+    assert any(t is not None for t in tables) == glossy
+    assert (calls["solid_angle_chain"] > 0) == glossy and calls["sh_source"] > 0
     assert np.array_equal(alone.mask, lit.mask)
     assert np.array_equal(alone.rgb, lit.rgb)
 

@@ -553,9 +553,10 @@ class VoxelScene:
         environment's chain, on the cube the chain weighted by solid angle (EnvironmentFilter.solid_angle_chain;
         the read divides rgb by a), where the paper's box chain misses a face's mean radiance at its coarse
         levels, and on LOBE_UNIT the broad-lobe table (lobe_table.py) the lobes below N = 255 come from; a 2D
-        store's own chain (env_map.glsl). A scene without a glossy surface reads none: the paper's cube is bound
-        to the sampler as it stands, and neither the weighted chain nor the table is built. Both are refreshed
-        here if the store was filled since (normally done at the start of `update`)."""
+        store's own chain (env_map.glsl). A scene without a glossy surface, or whose voxels hold no light
+        (occlusion alone), reads none: the paper's cube is bound to the sampler as it stands, and neither the
+        weighted chain nor the table is built. Both are refreshed here if the store was filled since (normally
+        done at the start of `update`)."""
         if isinstance(self.env_filter, EnvironmentFilter) and self.reads_environment:
             self.env_filter.solid_angle_chain().use(unit)
             set_uniform(prog, "vct_env_cube", unit)
@@ -773,7 +774,10 @@ class _VctEffect(Technique):
         self._split: dict[str, float] = {}
 
     def chain_level(self, frame: Frame) -> int | None:
-        return None  # the injection reads the glossy lobe's level of the chain
+        # the whole chain: on a 2D store the injection's glossy lobe reads its own chain at the lobe's level (on the
+        # cube the weighted chain, built apart). Occlusion alone reads none, and has the box chain built all the same
+        # (the whole chain takes 1.8 ms at base 256 on llvmpipe)
+        return None
 
     def prepare(self, frame: Frame) -> None:
         self.owner = "vct" not in frame.shared
