@@ -142,17 +142,6 @@ def frames_of(axes: np.ndarray) -> np.ndarray:
     return np.array([vct_math.tangent_frame(a) for a in axes])
 
 
-def cone_directions(axes: np.ndarray, half_angle: float, count: int, rng: np.random.Generator) -> np.ndarray:
-    """`count` directions uniform in solid angle over the cap of `half_angle` about each unit axis (K, 3):
-    (K, count, 3). cos(theta) uniform in [cos a, 1] is uniform in solid angle."""
-    k = len(axes)
-    cz = 1.0 - rng.random((k, count)) * (1.0 - math.cos(half_angle))
-    sz = np.sqrt(np.maximum(1.0 - cz * cz, 0.0))
-    phi = 2.0 * math.pi * rng.random((k, count))
-    local = np.stack([sz * np.cos(phi), sz * np.sin(phi), cz], -1)  # (K, count, 3)
-    return np.einsum("kcj,kjd->kcd", local, frames_of(axes))
-
-
 def cosine_directions(normals: np.ndarray, count: int, rng: np.random.Generator) -> np.ndarray:
     """`count` directions with density cos / pi about each unit normal (P, 3): (P, count, 3), the PRT
     precomputation's rays (transfer_rays.directions: a Fibonacci lattice, Cranley-Patterson rotated per point)."""
@@ -312,7 +301,7 @@ def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int,
     ray = scene_intersector(tris)
     eps = ray_offset(tris)
     ex_l, ex_a = exact_cones(ray, tris, faces, lo, h, np.repeat(points, CONES, 0),
-                             cone_directions(axes, cones.half_angle, rays, rng), eps)
+                             vct_math.cap_directions(axes, cones.half_angle, rays, rng), eps)
     hemisphere = exact_irradiance(ray, tris, faces, lo, h, points, normals, rays, eps, rng)
     albedo = np.array([scene.objects[i].material.kd for i in ids], dtype=np.float64)
     direct, v_exact = exact_direct(ray, points, normals, albedo, coeffs, rays, eps, rng)

@@ -32,16 +32,8 @@ def blocked_share(axis: np.ndarray, half_angle: float, centre: np.ndarray, radiu
                   origin: np.ndarray, samples: int = 200_000, seed: int = 1) -> float:
     """The fraction of the cap of `half_angle` about `axis` (directions uniform in solid angle) whose rays from
     `origin` meet the sphere (`centre`, `radius`) in front of it: Monte Carlo over `samples` directions."""
-    rng = np.random.default_rng(seed)
-    cos_t = 1.0 - rng.random(samples) * (1.0 - math.cos(half_angle))
-    sin_t = np.sqrt(1.0 - cos_t * cos_t)
-    phi = rng.random(samples) * 2.0 * math.pi
     a = np.asarray(axis, dtype=np.float64) / np.linalg.norm(axis)
-    helper = np.array([1.0, 0.0, 0.0]) if abs(a[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    t = np.cross(helper, a)
-    t /= np.linalg.norm(t)
-    b = np.cross(a, t)
-    d = (sin_t * np.cos(phi))[:, None] * t + (sin_t * np.sin(phi))[:, None] * b + cos_t[:, None] * a
+    d = vct_math.cap_directions(a[None], half_angle, samples, np.random.default_rng(seed))[0]
     oc = np.asarray(origin, dtype=np.float64) - centre
     half_b = d @ oc
     disc = half_b * half_b - (oc @ oc - radius * radius)

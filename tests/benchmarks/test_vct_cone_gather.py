@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import scenes
+from realtime.techniques.vct import vct_math
 from scenes.environment.shbasis import sh9
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -65,14 +66,14 @@ def lit_grid(res: int, radiance: float) -> np.ndarray:
 
 
 @pytest.mark.parametrize("half_deg", [10.0, 33.6])
-def test_cone_directions_fill_the_cap_uniformly_in_solid_angle(half_deg):
+def test_cap_directions_fill_the_cap_uniformly_in_solid_angle(half_deg):
     """Uniform over a cap of half-angle a: every direction within a of the axis and the mean cosine (1 + cos a)/2
     (the mean of cos theta over sin theta d theta on [0, a]). Control: directions uniform in theta instead
     (too many near the axis) fail the same bound."""
     a = math.radians(half_deg)
     axes = np.array([[0.0, 0.0, 1.0], [0.6, 0.0, 0.8]])
     n = 20000
-    d = model.cone_directions(axes, a, n, np.random.default_rng(1))
+    d = vct_math.cap_directions(axes, a, n, np.random.default_rng(1))
     cos = np.einsum("kcj,kj->kc", d, axes)
     assert np.allclose(np.linalg.norm(d, axis=-1), 1.0)
     assert cos.min() >= math.cos(a) - 1e-12
@@ -127,7 +128,7 @@ def test_a_cone_inside_a_closed_box_meets_it_everywhere_and_gathers_its_fronts(i
     ray = model.scene_intersector(tris)
     faces = lit_grid(8, 0.7)
     axes = np.array([[0.0, 0.0, 1.0], [0.6, 0.8, 0.0]])
-    dirs = model.cone_directions(axes, math.radians(33.6), 400, np.random.default_rng(3))
+    dirs = vct_math.cap_directions(axes, math.radians(33.6), 400, np.random.default_rng(3))
     radiance, share = model.exact_cones(ray, tris, faces, np.full(3, -2.0), 0.5, np.zeros((2, 3)), dirs, 1e-6)
     assert share == pytest.approx([1.0, 1.0])
     assert radiance == pytest.approx([0.7, 0.7] if inward else [0.0, 0.0], abs=1e-6)
@@ -141,7 +142,7 @@ def test_a_cone_along_a_large_plane_is_half_blocked():
     ray = model.scene_intersector(tris)
     a = math.radians(20.0)
     axes = np.array([[1.0, 0.0, 0.0], [math.cos(0.4), math.sin(0.4), 0.0]])
-    dirs = model.cone_directions(axes, a, 4000, np.random.default_rng(4))
+    dirs = vct_math.cap_directions(axes, a, 4000, np.random.default_rng(4))
     _, share = model.exact_cones(ray, tris, lit_grid(4, 1.0), np.full(3, -1.0), 0.5,
                                  np.array([[0.0, 1e-3, 0.0]] * 2), dirs, 1e-7)
     assert share[0] == pytest.approx(0.5, abs=0.03)  # 4000 directions: standard error 0.008

@@ -133,6 +133,18 @@ def tangent_frame(n: np.ndarray) -> np.ndarray:
     return np.stack([t, np.cross(n, t), n])
 
 
+def cap_directions(axes: np.ndarray, half_angle: float, count: int, rng: np.random.Generator) -> np.ndarray:
+    """`count` directions uniform in solid angle over the cap of `half_angle` about each unit axis (K, 3):
+    (K, count, 3), in each axis's `tangent_frame`. cos(theta) uniform in [cos a, 1] is uniform in solid angle."""
+    k = len(axes)
+    cz = 1.0 - rng.random((k, count)) * (1.0 - math.cos(half_angle))
+    sz = np.sqrt(np.maximum(1.0 - cz * cz, 0.0))
+    phi = 2.0 * math.pi * rng.random((k, count))
+    local = np.stack([sz * np.cos(phi), sz * np.sin(phi), cz], -1)  # (K, count, 3)
+    frames = np.array([tangent_frame(a) for a in axes])  # (K, 3, 3), rows t, b, n
+    return np.einsum("kcj,kjd->kcd", local, frames)
+
+
 def glossy_half_angle(exponent: float) -> float:
     """The glossy cone's half-angle (radians): 2 pi (1 - cos a) = 2 pi / (N + 1), i.e. cos a = N / (N + 1)."""
     a = math.degrees(math.acos(max(0.0, min(1.0, exponent / (exponent + 1.0)))))
