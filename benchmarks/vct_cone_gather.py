@@ -2,7 +2,7 @@
 
     .venv/bin/python benchmarks/vct_cone_gather.py [--scene cornell-open] [--resolutions 32,64,128]
                                                    [--points 48] [--rays 512] [--seed 0] [--uniform]
-                                                   [--set KEY=VALUE ...]
+                                                   [--bands 0] [--set KEY=VALUE ...]
 
 A point's one bounce is kd / pi times the irradiance its six diffuse cones gather, sum_k w_k L_k, of the radiance
 the voxels hold. Three factors stand between that and the exact bounce, each measured here against a ray cast of
@@ -24,8 +24,14 @@ the scene's triangles (Embree) at points sampled on every object (area-weighted,
   V_d over the exact V.
 
 Each figure is a ratio of sums over the points, with its standard error (a bootstrap over the points); the row
-"all" weights each point by its object's area and albedo (the bounce's power). `--uniform` sets every lit face
-to radiance 1 (the mips rebuilt): the read and the quadrature then measure geometry alone.
+"all" weights each point by its object's area and albedo (the bounce's power), the row "seen" by the pixels it
+covers in the scene's camera (`camera_weights`), as an image's mean weighs it: where the three factors' errors
+differ over the surfaces, an image's ratio is their product over what the camera sees, not over the surfaces'
+area. `--uniform` sets every lit face to radiance 1 (the mips rebuilt): the read and the quadrature then measure
+geometry alone. `--bands N` adds VCT's gather over the exact irradiance in N bands of height (y), which shows
+where over the surfaces the read errs: inside bowl-diffuse the exact one is the same at every point of the
+hemisphere (two points of a sphere's inside see each other along a chord at equal angles to both normals, so the
+form factor's kernel is 1 / (4 pi R^2) for every pair), so every band of its inside should read the same.
 
 Diffuse scenes only: the radiance at a hit is the voxel's face toward the surface's normal, which is the
 surface's radiance toward every direction only where it is diffuse (`--set "objects.6.material={type =
@@ -53,6 +59,7 @@ from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 from scenes.environment.shbasis import sh9
+from scenes.model.camera import Camera
 from scenes.model.scene import Scene, SceneObject
 from scenes.storage.errors import SceneError
 
@@ -104,6 +111,39 @@ def scene_intersector(tris: Triangles) -> Any:
 def ray_offset(tris: Triangles) -> float:
     """How far rays start from their surface: 1e-4 of the triangles' bounding-box diagonal."""
     return 1e-4 * float(np.linalg.norm(np.ptp(tris.vertices.reshape(-1, 3), axis=0)))
+
+
+def camera_weights(ray: Any, points: np.ndarray, normals: np.ndarray, camera: Camera, eps: float) -> np.ndarray:
+    """Each point's share of an image's pixels per unit of its area (P,): a surface element dA at distance d, its
+    normal at angle theta from the camera, subtends cos(theta) dA / d^2, and a pixel at angle phi off the view axis
+    subtends (pixel area / focal length^2) cos^3(phi) (its plane's distance grows as 1 / cos phi and it is seen
+    obliquely by cos phi), so it covers cos(theta) / (d^2 cos^3(phi)) pixels up to a constant; 0 where the point
+    lies outside the view (the vertical fov and the image's aspect), faces away from the camera or something lies
+    between them."""
+    origin = np.asarray(camera.origin, dtype=np.float64)
+    right, up, forward = camera.basis()
+    to_camera = origin - points
+    d = np.linalg.norm(to_camera, axis=1)
+    v = to_camera / d[:, None]
+    cos_theta = np.einsum("pj,pj->p", normals, v)
+    depth = -to_camera @ forward
+    cos_phi = depth / d
+    tan_half = math.tan(math.radians(camera.fov_deg) / 2.0)
+    in_view = ((depth > 0.0) & (np.abs(-to_camera @ up) <= tan_half * depth)
+               & (np.abs(-to_camera @ right) <= tan_half * camera.aspect * depth))
+    front = (cos_theta > 0.0) & in_view
+    seen = np.zeros(len(points), dtype=bool)
+    seen[front] = transfer_rays.visible(ray, points[front] + eps * v[front], v[front])
+    return np.where(seen, cos_theta / (d ** 2 * np.maximum(cos_phi, 1e-6) ** 3), 0.0)
+
+
+def height_bands(heights: np.ndarray, count: int) -> list[np.ndarray]:
+    """`count` equal bands of height over the range of `heights`, lowest first: a mask per band (the top one
+    holds its upper bound)."""
+    lo, hi = float(heights.min()), float(heights.max())
+    edges = np.linspace(lo, hi, count + 1)
+    band = np.clip(np.searchsorted(edges, heights, side="right") - 1, 0, count - 1)
+    return [band == b for b in range(count)]
 
 
 def level0_faces(vs: VoxelScene) -> np.ndarray:
@@ -258,7 +298,8 @@ class ConeRows:
     """Per point (P) and cone: VCT's gathered grey radiance and opacity, the exact ones; the cone weights; per
     point the exact irradiance of the voxels' radiance, the injected and exact direct radiance, the injection's
     form with the exact visibility, the shading's own cones' irradiance and visibility, the exact visibility,
-    and each point's weight in the row "all" (its object's area over its points, times its albedo)."""
+    each point's weight in the row "all" (its object's area over its points, times its albedo), the points and
+    their normals, and each point's weight in the row "seen" (`camera_weights`, times its albedo)."""
     object_id: np.ndarray  # (P,)
     vct_radiance: np.ndarray  # (P, CONES)
     vct_opacity: np.ndarray
@@ -273,6 +314,9 @@ class ConeRows:
     probe_visibility: np.ndarray
     exact_visibility: np.ndarray
     power_weight: np.ndarray
+    points: np.ndarray  # (P, 3), on the surfaces
+    normals: np.ndarray  # (P, 3)
+    camera_weight: np.ndarray  # (P,), camera_weights in the scene's camera
 
 
 def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int, uniform: bool = False) -> ConeRows:
@@ -312,7 +356,8 @@ def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int,
     return ConeRows(ids, cone[:, :3].mean(1).reshape(p, CONES), cone[:, 3].reshape(p, CONES),
                     ex_l.reshape(p, CONES), ex_a.reshape(p, CONES), cones.weights, hemisphere,
                     voxel_radiance(faces, lo, h, points, normals), direct,
-                    (albedo / math.pi * e_sh).mean(1) * v_exact, probe[:, :3].mean(1), probe[:, 3], v_exact, power)
+                    (albedo / math.pi * e_sh).mean(1) * v_exact, probe[:, :3].mean(1), probe[:, 3], v_exact, power,
+                    points, normals, camera_weights(ray, points, normals, scene.camera, eps) * albedo.mean(1))
 
 
 def ratio(a: np.ndarray, b: np.ndarray, w: np.ndarray | None = None) -> float:
@@ -341,6 +386,8 @@ def summary(rows: ConeRows, names: list[str], injection: bool, seed: int = 0) ->
     rng = np.random.default_rng(seed)
     groups = [(names[i], rows.object_id == i, np.ones(len(rows.object_id))) for i in np.unique(rows.object_id)]
     groups.append(("all", rows.object_id >= 0, rows.power_weight))
+    if rows.camera_weight.any():
+        groups.append(("seen", rows.camera_weight > 0.0, rows.camera_weight))
     e_vct = rows.vct_radiance @ rows.weights
     e_cones = rows.exact_radiance @ rows.weights
     out = ["| object | read: VCT / exact cones | quadrature: exact cones / hemisphere | VCT / hemisphere "
@@ -362,6 +409,29 @@ def summary(rows: ConeRows, names: list[str], injection: bool, seed: int = 0) ->
         out.append(f"| {name} | {with_error(rows.injected[m], rows.exact_direct[m], w[m], g, rng)} "
                    f"| {with_error(rows.injected[m], rows.unshadowed_times_v[m], w[m], g, rng)} "
                    f"| {with_error(rows.probe_visibility[m], rows.exact_visibility[m], w[m], g, rng)} |")
+    if rows.camera_weight.any():
+        w = rows.camera_weight
+        read = ratio(e_vct, rows.exact_irradiance, w)
+        injected = ratio(rows.injected, rows.exact_direct, w)
+        out += ["", f"seen by the camera: VCT / hemisphere {read:.3f} x injected / exact direct {injected:.3f} "
+                    f"= {read * injected:.3f} (an image's bounce over the path tracer's, up to the SH9 radiance's "
+                    "own error)"]
+    return out
+
+
+def band_lines(rows: ConeRows, count: int) -> list[str]:
+    """VCT's gather (the shading's own cones) over the exact irradiance of the voxels' radiance in `count` bands
+    of height, over the points that gather any bounce (exact irradiance > 0: bowl-diffuse's outside gathers none),
+    each band's points weighted alike, with the exact irradiance's mean (a table)."""
+    out = ["| height (y) | points | exact irradiance, mean | VCT / exact |", "|---|---|---|---|"]
+    gathers = rows.exact_irradiance > 0.0
+    heights = rows.points[gathers, 1]
+    edges = np.linspace(heights.min(), heights.max(), count + 1)
+    for b, m in enumerate(height_bands(heights, count)):
+        exact = rows.exact_irradiance[gathers][m]
+        share = f"{rows.probe_irradiance[gathers][m].sum() / exact.sum():.3f}" if exact.sum() > 0.0 else "-"
+        mean = f"{exact.mean():.4f}" if m.any() else "-"
+        out.append(f"| {edges[b]:.3f} to {edges[b + 1]:.3f} | {int(m.sum())} | {mean} | {share} |")
     return out
 
 
@@ -381,6 +451,7 @@ def main() -> None:
     ap.add_argument("--rays", type=int, default=512, help="rays per cone, per hemisphere and per direct light")
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--uniform", action="store_true", help="every lit face at radiance 1: geometry alone")
+    ap.add_argument("--bands", type=int, default=0, help="also VCT over exact by this many bands of height")
     ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a scene override")
     a = ap.parse_args()
     try:
@@ -390,6 +461,8 @@ def main() -> None:
     for flag, value in (("--points", a.points), ("--rays", a.rays)):
         if value <= 0:
             ap.error(f"{flag} {value}: must be positive")
+    if a.bands < 0:
+        ap.error(f"--bands {a.bands}: must be 0 or more")
     bad = [kv for kv in a.set if "=" not in kv]
     if bad:
         ap.error(f"--set {bad[0]!r}: expected KEY=VALUE")
@@ -410,6 +483,8 @@ def main() -> None:
         lit = "every lit face at radiance 1" if a.uniform else scene.environment.map
         print(f"\n{spec} at {res}^3 ({a.points} points an object, {a.rays} rays a cone; {lit})")
         print("\n".join(summary(rows, names, injection=not a.uniform, seed=a.seed)), flush=True)
+        if a.bands:
+            print("\n" + "\n".join(band_lines(rows, a.bands)), flush=True)
 
 
 if __name__ == "__main__":

@@ -359,11 +359,21 @@ def plane(resolution: int = 1, half_size: float = 0.7) -> Mesh:
     return make_mesh("plane", p, np.array(tris), normals=normals, convex=True, closed=False)
 
 
-def bowl(resolution: int = 48, outer: float = 0.85, inner: float = 0.75) -> Mesh:
+#: bowl()'s radii: its outer and inner hemispheres
+BOWL_OUTER, BOWL_INNER = 0.85, 0.75
+
+
+def bowl_centre(outer: float = BOWL_OUTER) -> np.ndarray:
+    """The common centre of bowl()'s two hemispheres, in its rim's plane: (0, outer / 2, 0), which centres the
+    bowl's bounding box at the origin."""
+    return np.array([0.0, outer / 2.0, 0.0])
+
+
+def bowl(resolution: int = 48, outer: float = BOWL_OUTER, inner: float = BOWL_INNER) -> Mesh:
     """A concave hemispherical bowl (opening up, +Y) with a wall and a flat rim, closed.
 
-    Outer hemisphere radius `outer`, inner radius `inner`; shifted so its bounding box is
-    centred at the origin. Not convex: it occludes and reflects onto itself.
+    Outer hemisphere radius `outer`, inner radius `inner`, both about `bowl_centre(outer)`, which
+    centres its bounding box at the origin. Not convex: it occludes and reflects onto itself.
     """
     n_lat, n_lon = max(2, resolution // 2), max(3, 2 * resolution)
     phi = np.arange(n_lon) * 2 * np.pi / n_lon
@@ -406,7 +416,7 @@ def bowl(resolution: int = 48, outer: float = 0.85, inner: float = 0.75) -> Mesh
         o0, i0 = rim_b + 2 * j, rim_b + 2 * j + 1
         o1, i1 = rim_b + 2 * ((j + 1) % n_lon), rim_b + 2 * ((j + 1) % n_lon) + 1
         tris += [(o0, o1, i1), (o0, i1, i0)]
-    p = np.array(pts) + np.array([0.0, outer / 2.0, 0.0])
+    p = np.array(pts) + bowl_centre(outer)
     return make_mesh("bowl", p, np.array(tris), normals=np.array(nrm), convex=False)
 
 

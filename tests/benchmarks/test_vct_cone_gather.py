@@ -8,6 +8,7 @@ from __future__ import annotations
 import importlib.util
 import math
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -15,6 +16,8 @@ import pytest
 import scenes
 from realtime.techniques.vct import vct_math
 from scenes.environment.shbasis import sh9
+from scenes.geometry.meshes import BOWL_INNER, bowl, bowl_centre
+from scenes.model.camera import Camera
 
 ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("vct_cone_gather", ROOT / "benchmarks" / "vct_cone_gather.py")
@@ -203,6 +206,95 @@ def test_exact_irradiance_of_a_uniformly_lit_closed_box_is_pi_times_its_radiance
         assert e == pytest.approx([expected, expected], rel=1e-6, abs=1e-9)  # the faces are float32
 
 
+# Inside a sphere of radius R two points x, y of its surface see each other along the chord d = y - x, and the
+# chord makes the same angle with both inward normals: cos(theta_x) = cos(theta_y) = |d| / (2R). The form factor's
+# kernel cos(theta_x) cos(theta_y) / (pi |d|^2) is then 1 / (4 pi R^2) for every pair, and the irradiance at x
+# from a Lambertian radiance L over the part S of the sphere x sees is (1 / 4R^2) int_S L dA. A chord between
+# two points of a hemispherical bowl's inside stays inside the ball, so every point of the inside sees all of it
+# and gathers the same bounce, however the light is spread over the inside (benchmarks/vct_cone_gather.py's
+# --bands reads VCT's gather against it on bowl-diffuse).
+BOWL_CENTRE = bowl_centre()
+
+
+def bowl_triangles() -> model.Triangles:
+    return model.scene_triangles([SimpleNamespace(mesh=bowl(), material=SimpleNamespace(two_sided=False))])
+
+
+def inner_facet(tris: model.Triangles, polar_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """The centroid and normal of the bowl's inner facet nearest the direction `polar_deg` from its bottom (at
+    azimuth 37 deg): a point on the mesh itself, which lies a hair inside the sphere."""
+    t, a = math.radians(polar_deg), math.radians(37.0)
+    want = BOWL_CENTRE + BOWL_INNER * np.array([math.sin(t) * math.sin(a), -math.cos(t), math.sin(t) * math.cos(a)])
+    centroids = tris.vertices.mean(1)
+    inner = np.einsum("fj,fj->f", tris.normals, BOWL_CENTRE - centroids) > 0.9 * BOWL_INNER
+    i = np.flatnonzero(inner)[np.argmin(np.linalg.norm(centroids[inner] - want, axis=1))]
+    return centroids[i], tris.normals[i]
+
+
+def depth_lit_grid(res: int, lo: float, voxel: float, base: float, slope: float) -> np.ndarray:
+    """Faces (6, R, R, R, 4), every face opaque, showing base + slope (c_y - y) / R_inner at its texel's centre
+    (y its height): brighter toward the bowl's bottom."""
+    y = lo + (np.arange(res) + 0.5) * voxel
+    value = base + slope * (BOWL_CENTRE[1] - y) / BOWL_INNER
+    f = np.zeros((6, res, res, res, 4), dtype=np.float32)
+    f[..., :3] = value[None, None, :, None, None]
+    f[..., 3] = 1.0
+    return f
+
+
+@pytest.mark.parametrize("slope", [0.0, 1.0])
+@pytest.mark.parametrize("polar_deg", [3.0, 30.0, 60.0, 85.0])
+def test_every_point_inside_a_hemispherical_bowl_gathers_the_same_bounce(polar_deg, slope):
+    """The radiance base + slope (c_y - y) / R over the bowl's inside: int_S L dA = 2 pi R^2 base + pi R^2 slope
+    (the lower hemisphere's int -u_y dA is pi R^2), so every inner point gathers (pi / 2) base + (pi / 4) slope
+    (the derivation above), by ray casting within 3 % at the bottom, half way and near the rim. Control: the point
+    a third of the radius up toward the centre, facing up, sees more of the opening and gathers less."""
+    tris = bowl_triangles()
+    voxel, lo = 0.05, -1.0
+    faces = depth_lit_grid(40, lo, voxel, 0.5, slope)
+    expected = math.pi / 2 * 0.5 + math.pi / 4 * slope
+    ray, rng = model.scene_intersector(tris), np.random.default_rng(3)
+    point, normal = inner_facet(tris, polar_deg)
+    e = model.exact_irradiance(ray, tris, faces, np.full(3, lo), voxel, point[None], normal[None], 4096, 1e-5, rng)
+    assert e[0] == pytest.approx(expected, rel=0.03)
+    bottom, _ = inner_facet(tris, 0.0)
+    lifted = bottom + np.array([0.0, BOWL_INNER / 3.0, 0.0])
+    e_lifted = model.exact_irradiance(ray, tris, faces, np.full(3, lo), voxel, lifted[None],
+                                      np.array([[0.0, 1.0, 0.0]]), 4096, 1e-5, rng)
+    assert e_lifted[0] < 0.9 * expected
+
+
+def test_camera_weights_count_the_pixels_a_unit_of_area_covers():
+    """Camera at the origin looking down -z, vertical fov 70 deg, twice as wide as high: a point 2 away on the
+    axis facing it covers 1/4 (up to the constant); turned 60 deg, 1/8; 30 deg off the axis sideways at distance
+    2, facing the camera, cos 0 / (4 cos^3 30 deg); facing away, 0; 40 deg off the axis upward (past the fov's
+    35 deg) or behind the camera, 0; behind a wall between it and the camera, 0 (without the wall: 1/4)."""
+    camera = Camera(origin=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), fov_deg=70.0, width=200, height=100)
+    off = np.array([math.sin(math.radians(30.0)), 0.0, -math.cos(math.radians(30.0))]) * 2.0
+    above = np.array([0.0, math.sin(math.radians(40.0)), -math.cos(math.radians(40.0))]) * 2.0
+    points = np.array([[0.0, 0.0, -2.0], [0.0, 0.0, -2.0], off, [0.0, 0.0, -2.0], above, [0.0, 0.0, 2.0]])
+    turned = np.array([math.sin(math.radians(60.0)), 0.0, math.cos(math.radians(60.0))])
+    normals = np.array([[0.0, 0.0, 1.0], turned, -off / 2.0, [0.0, 0.0, -1.0], -above / 2.0, [0.0, 0.0, -1.0]])
+    far = triangles([quad([(-5, -5, -50), (5, -5, -50), (5, 5, -50), (-5, 5, -50)], (0, 0, 1))])
+    w = model.camera_weights(model.scene_intersector(far), points, normals, camera, 1e-6)
+    assert w == pytest.approx([0.25, 0.125, 0.25 / math.cos(math.radians(30.0)) ** 3, 0.0, 0.0, 0.0])
+    assert model.camera_weights(model.scene_intersector(far), points[4:5], normals[4:5],
+                                Camera(origin=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), fov_deg=90.0),
+                                1e-6)[0] == pytest.approx(0.25 / math.cos(math.radians(40.0)) ** 3)
+    wall = triangles([quad([(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1)], (0, 0, 1))])
+    blocked = model.camera_weights(model.scene_intersector(wall), points[:1], normals[:1], camera, 1e-6)
+    assert blocked[0] == 0.0
+
+
+def test_height_bands_split_the_range_into_equal_bands():
+    """Heights 0..1 into 4 bands: 0.1 in the first, 0.3 in the second, 0.5 in the third, 0.9 and the top 1.0 in
+    the last; every height in exactly one band."""
+    h = np.array([0.0, 0.1, 0.3, 0.5, 0.9, 1.0])
+    bands = model.height_bands(h, 4)
+    assert [np.flatnonzero(b).tolist() for b in bands] == [[0, 1], [2], [3], [4, 5]]
+    assert sum(b.astype(int) for b in bands).tolist() == [1] * 6
+
+
 def test_summary_weights_the_cones_and_the_objects():
     """Two objects of two points each, every cone reading half the exact cone integral on the first and all of it
     on the second, each exact integral 1 and the hemisphere pi: the read 0.5 and 1.0 (no spread: standard error
@@ -213,7 +305,8 @@ def test_summary_weights_the_cones_and_the_objects():
     ones = np.ones((4, model.CONES))
     per_point = np.ones(4)
     rows = model.ConeRows(ids, vct, ones, ones, ones, w, np.full(4, math.pi), per_point, per_point, per_point,
-                          per_point, per_point, per_point, np.array([1.0, 1.0, 3.0, 3.0]))
+                          per_point, per_point, per_point, np.array([1.0, 1.0, 3.0, 3.0]), np.zeros((4, 3)),
+                          np.tile([0.0, 1.0, 0.0], (4, 1)), np.zeros(4))
     lines = model.summary(rows, ["a", "b"], injection=False)
     assert len(lines) == 5
     assert lines[2].startswith("| a | 0.500 ± 0.000 | 1.000 ± 0.000 | 0.500 ± 0.000 |")
