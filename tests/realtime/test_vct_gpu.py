@@ -42,6 +42,7 @@ from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene, scene_bounds
 from scenes.environment.shbasis import sh9
+from scenes.geometry.meshes import BOWL_INNER, bowl_centre
 
 pytestmark = pytest.mark.gl
 
@@ -1200,7 +1201,7 @@ def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):
     axis): within [0.78, 1.02].
     Control (tests/mutants/shader_mutants.py): the surface's back faces counted in the radiance's
     normalisation read 0.70 on the wall at 40 degrees."""
-    scene = scenes.load("builtin:bowl-diffuse")  # inner radius 0.75, centre 0.425 up
+    scene = scenes.load("builtin:bowl-diffuse")
     env = sh_of(ctx, scene)
     vs = voxels(ctx, scene.objects, 64, env=env)
     L = 1.0
@@ -1211,7 +1212,7 @@ def test_uniformly_lit_bowl_gathers_its_radiance_times_the_opacity(ctx):
     vs.build_mips()
     theta = np.radians([0.0, 20.0, 40.0, 60.0, 75.0])
     d = np.stack([0.3 * np.sin(theta), -np.cos(theta), math.sqrt(1.0 - 0.09) * np.sin(theta)], -1)
-    r = vs.probe(np.array([0.0, 0.425, 0.0]) + 0.75 * d, -d)
+    r = vs.probe(bowl_centre() + BOWL_INNER * d, -d)
     vs.release()
     env.release()
     ratio = r[:, 0] / (math.pi * L * (1.0 - r[:, 3]))

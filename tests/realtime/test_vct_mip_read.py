@@ -25,13 +25,13 @@ from realtime.engine.context import get_context
 from realtime.engine.gpu import expand_includes, shader_source
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
+from scenes.geometry.meshes import BOWL_INNER, BOWL_OUTER, bowl_centre
 from tests.helpers import scene_voxels
 
 pytestmark = pytest.mark.gl
 
 PACKAGE = "realtime.techniques.vct"
-BOWL_CENTRE = np.array([0.0, 0.425, 0.0])  # bowl-diffuse: inner radius 0.75, outer 0.85, about this centre
-BOWL_INNER, BOWL_OUTER = 0.75, 0.85
+BOWL_CENTRE = bowl_centre()  # bowl-diffuse's two hemispheres, BOWL_INNER and BOWL_OUTER, about it
 # the variants the negative controls compile: (shader, original text, replacement)
 CONTROLS = {
     # every pair averaged as it is (no pair is a back)
@@ -138,11 +138,7 @@ def test_mip_normalises_radiance_by_the_opacity_of_its_fronts(ctx, control):
 def exact_occlusion(x: np.ndarray, d: np.ndarray, half_angle: float, rng: np.random.Generator) -> float:
     """The share of the cone's directions (uniform in solid angle) from x, inside the bowl's sphere, whose
     ray meets the sphere below the rim (y < centre): the far root of |x + t w - c| = R."""
-    m = 4000
-    cz = 1.0 - rng.random(m) * (1.0 - math.cos(half_angle))
-    sz, ph = np.sqrt(1.0 - cz * cz), 2.0 * math.pi * rng.random(m)
-    t_, b_, n_ = vct_math.tangent_frame(d)
-    w = (sz * np.cos(ph))[:, None] * t_ + (sz * np.sin(ph))[:, None] * b_ + cz[:, None] * n_
+    w = vct_math.cap_directions(d[None], half_angle, 4000, rng)[0]
     o = x - BOWL_CENTRE
     b, c = w @ o, o @ o - BOWL_INNER ** 2
     t = -b + np.sqrt(np.maximum(b * b - c, 0.0))
