@@ -24,14 +24,17 @@ the scene's triangles (Embree) at points sampled on every object (area-weighted,
   V_d over the exact V.
 
 Each figure is a ratio of sums over the points, with its standard error (a bootstrap over the points); the row
-"all" weights each point by its object's area and albedo (the bounce's power), the row "seen" by the pixels it
-covers in the scene's camera (`camera_weights`), as an image's mean weighs it: where the three factors' errors
-differ over the surfaces, an image's ratio is their product over what the camera sees, not over the surfaces'
-area. `--uniform` sets every lit face to radiance 1 (the mips rebuilt): the read and the quadrature then measure
-geometry alone. `--bands N` adds VCT's gather over the exact irradiance in N bands of height (y), which shows
-where over the surfaces the read errs: inside bowl-diffuse the exact one is the same at every point of the
-hemisphere (two points of a sphere's inside see each other along a chord at equal angles to both normals, so the
-form factor's kernel is 1 / (4 pi R^2) for every pair), so every band of its inside should read the same.
+"all" weights each point by its object's area and albedo (the bounce's power), the row "seen" also by the pixels
+it covers in the scene's camera (`camera_weights`), as an image's mean weighs it. Where the factors' errors differ
+over the surfaces, an image's ratio is their product over what the camera sees, and a point's bounce carries the
+injection of the surfaces it sees, not its own: the closing line multiplies the seen points' read × quadrature by
+the injection as they gather it and by SH9's error against the map itself (`gathered_direct`), which together
+stand for an image's bounce over the path tracer's. `--uniform` sets every lit face to radiance 1 (the mips
+rebuilt): the read and the quadrature then measure geometry alone. `--bands N` adds VCT's gather over the exact
+irradiance in N bands of height (y), which shows where over the surfaces the read errs: inside bowl-diffuse the
+exact one is the same at every point of the hemisphere (two points of a sphere's inside see each other along a
+chord at equal angles to both normals, so the form factor's kernel is 1 / (4 pi R^2) for every pair), so every band
+of its inside should read the same.
 
 Diffuse scenes only: the radiance at a hit is the voxel's face toward the surface's normal, which is the
 surface's radiance toward every direction only where it is diffuse (`--set "objects.6.material={type =
@@ -46,7 +49,7 @@ from __future__ import annotations
 
 import argparse
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +61,7 @@ from realtime.engine.context import get_context
 from realtime.engine.environment_maps import environment_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
+from scenes.environment import envmap
 from scenes.environment.shbasis import sh9
 from scenes.model.camera import Camera
 from scenes.model.scene import Scene, SceneObject
@@ -68,6 +72,9 @@ FACE_AXES = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1], [
 CONES = 6
 #: bootstrap resamples of the points for the standard errors
 RESAMPLES = 200
+#: rays a seen point gathers its bounce over, and rays each of their hits takes its direct light over
+#: (`gathered_direct`: their product a point, so fewer than `--rays`)
+GATHER_RAYS = 64
 
 
 @dataclass(frozen=True)
@@ -131,19 +138,23 @@ def camera_weights(ray: Any, points: np.ndarray, normals: np.ndarray, camera: Ca
     tan_half = math.tan(math.radians(camera.fov_deg) / 2.0)
     in_view = ((depth > 0.0) & (np.abs(-to_camera @ up) <= tan_half * depth)
                & (np.abs(-to_camera @ right) <= tan_half * camera.aspect * depth))
-    front = (cos_theta > 0.0) & in_view
+    front = np.flatnonzero((cos_theta > 0.0) & in_view)
+    if front.size == 0:
+        return np.zeros(len(points))
     seen = np.zeros(len(points), dtype=bool)
-    seen[front] = transfer_rays.visible(ray, points[front] + eps * v[front], v[front])
+    seen[front] = True
+    loc, index_ray, _ = ray.intersects_location(points[front] + eps * v[front], v[front], multiple_hits=False)
+    hit = front[index_ray]
+    seen[hit[np.linalg.norm(loc - points[hit], axis=1) < d[hit] - eps]] = False  # met before the camera
     return np.where(seen, cos_theta / (d ** 2 * np.maximum(cos_phi, 1e-6) ** 3), 0.0)
 
 
-def height_bands(heights: np.ndarray, count: int) -> list[np.ndarray]:
-    """`count` equal bands of height over the range of `heights`, lowest first: a mask per band (the top one
-    holds its upper bound)."""
-    lo, hi = float(heights.min()), float(heights.max())
-    edges = np.linspace(lo, hi, count + 1)
+def height_bands(heights: np.ndarray, count: int) -> tuple[np.ndarray, list[np.ndarray]]:
+    """`count` equal bands of height over the range of `heights`, lowest first: (their count + 1 edges, a mask
+    per band; the top band holds its upper bound)."""
+    edges = np.linspace(float(heights.min()), float(heights.max()), count + 1)
     band = np.clip(np.searchsorted(edges, heights, side="right") - 1, 0, count - 1)
-    return [band == b for b in range(count)]
+    return edges, [band == b for b in range(count)]
 
 
 def level0_faces(vs: VoxelScene) -> np.ndarray:
@@ -252,17 +263,64 @@ def exact_irradiance(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarra
     return math.pi * radiance.reshape(len(points), count).mean(1)
 
 
-def exact_direct(ray: Any, points: np.ndarray, normals: np.ndarray, albedo: np.ndarray, coeffs: np.ndarray,
-                 count: int, eps: float, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """A diffuse surface's direct radiance under the environment's SH9 radiance (coeffs (9, 3)), shadowed by the
+def sh9_sky(coeffs: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+    """The environment's SH9 radiance (coeffs (9, 3)) along directions (..., 3), unclamped: the radiance whose
+    cosine integral is the injection's E(n)."""
+    return lambda d: sh9(d) @ coeffs
+
+
+def map_sky(scene: Scene) -> Callable[[np.ndarray], np.ndarray]:
+    """The environment map's own radiance along directions (..., 3), looked up as the path tracer looks it up
+    (`envmap.lookup`, the map's rotation applied)."""
+    env, turn = scene.environment.radiance(), scene.environment.rotation_deg
+    return lambda d: envmap.lookup(env, d, turn)
+
+
+def exact_direct(ray: Any, points: np.ndarray, normals: np.ndarray, albedo: np.ndarray,
+                 sky: Callable[[np.ndarray], np.ndarray], count: int, eps: float,
+                 rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """A diffuse surface's direct radiance under the radiance `sky` (`sh9_sky`, `map_sky`), shadowed by the
     scene: kd / pi int V(w) L(w) cos dw = kd E[V L] over cosine-weighted directions, grey (the channels' mean);
     and the cosine-weighted visibility V = E[V]: ((P,), (P,)). albedo (P, 3)."""
+    if len(points) == 0:
+        return np.zeros(0), np.zeros(0)
     d = cosine_directions(normals, count, rng)
     o = np.repeat(points, count, axis=0) + eps * d.reshape(-1, 3)
     vis = transfer_rays.visible(ray, o, d.reshape(-1, 3)).reshape(len(points), count)
-    radiance = sh9(d) @ coeffs  # (P, count, 3), unclamped: the radiance whose cosine integral is the injection's E(n)
-    direct = (albedo[:, None, :] * radiance * vis[..., None]).mean(1).mean(-1)
+    direct = (albedo[:, None, :] * sky(d) * vis[..., None]).mean(1).mean(-1)
     return direct, vis.mean(1)
+
+
+def gathered_direct(ray: Any, tris: Triangles, albedo: np.ndarray, faces: np.ndarray, lo: np.ndarray, voxel: float,
+                    points: np.ndarray, normals: np.ndarray, skies: Sequence[Callable[[np.ndarray], np.ndarray]],
+                    count: int, direct_count: int, eps: float,
+                    rng: np.random.Generator) -> tuple[np.ndarray, list[np.ndarray]]:
+    """The one bounce each point gathers, pi E[L(hit)] over `count` cosine-weighted rays (0 where a ray escapes or
+    meets a one-sided surface's back), of two radiances at the hits: the voxels' injected radiance
+    (`voxel_radiance`) and the exact direct light under each of `skies` (`exact_direct`, `direct_count` rays a hit;
+    `albedo` (objects, 3)): (the injected's (P,), [each sky's (P,)]). Taken over the same rays, their ratio is the
+    injection as the points gather it: the light of the surfaces they see, not their own."""
+    p = len(points)
+    if p == 0:
+        return np.zeros(0), [np.zeros(0) for _ in skies]
+    d = cosine_directions(normals, count, rng).reshape(-1, 3)
+    loc, index_ray, index_tri = ray.intersects_location(np.repeat(points, count, axis=0) + eps * d, d,
+                                                        multiple_hits=False)
+    n = tris.normals[index_tri]
+    facing = np.einsum("mj,mj->m", n, d[index_ray]) < 0.0
+    two = tris.two_sided[tris.object_id[index_tri]]
+    n = np.where((~facing & two)[:, None], -n, n)
+    sends = facing | two
+    loc, n, index_ray, index_tri = loc[sends], n[sends], index_ray[sends], index_tri[sends]
+    injected = np.zeros(p * count)
+    injected[index_ray] = voxel_radiance(faces, lo, voxel, loc, n)
+    out = []
+    for sky in skies:
+        direct = np.zeros(p * count)
+        direct[index_ray], _ = exact_direct(ray, loc + eps * n, n, albedo[tris.object_id[index_tri]], sky,
+                                            direct_count, eps, rng)
+        out.append(math.pi * direct.reshape(p, count).mean(1))
+    return math.pi * injected.reshape(p, count).mean(1), out
 
 
 def voxelise(scene: Scene, resolution: int) -> tuple[VoxelScene, np.ndarray, np.ndarray]:
@@ -298,8 +356,10 @@ class ConeRows:
     """Per point (P) and cone: VCT's gathered grey radiance and opacity, the exact ones; the cone weights; per
     point the exact irradiance of the voxels' radiance, the injected and exact direct radiance, the injection's
     form with the exact visibility, the shading's own cones' irradiance and visibility, the exact visibility,
-    each point's weight in the row "all" (its object's area over its points, times its albedo), the points and
-    their normals, and each point's weight in the row "seen" (`camera_weights`, times its albedo)."""
+    each point's weight in the row "all" (its object's area over its points, times its albedo), the points, and
+    where the camera sees them their weight in the row "seen" (`camera_weights` times the same) and the one bounce
+    they gather of the injected radiance and of the exact direct light under SH9 and under the map
+    (`gathered_direct`)."""
     object_id: np.ndarray  # (P,)
     vct_radiance: np.ndarray  # (P, CONES)
     vct_opacity: np.ndarray
@@ -315,8 +375,10 @@ class ConeRows:
     exact_visibility: np.ndarray
     power_weight: np.ndarray
     points: np.ndarray  # (P, 3), on the surfaces
-    normals: np.ndarray  # (P, 3)
-    camera_weight: np.ndarray  # (P,), camera_weights in the scene's camera
+    camera_weight: np.ndarray  # (P,), camera_weights in the scene's camera, times the point's area and albedo
+    gathered_injected: np.ndarray  # (P,), gathered_direct where the camera sees the point, else 0
+    gathered_sh9: np.ndarray
+    gathered_map: np.ndarray
 
 
 def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int, uniform: bool = False) -> ConeRows:
@@ -348,16 +410,26 @@ def gather(scene: Scene, resolution: int, per_object: int, rays: int, seed: int,
                              vct_math.cap_directions(axes, cones.half_angle, rays, rng), eps)
     hemisphere = exact_irradiance(ray, tris, faces, lo, h, points, normals, rays, eps, rng)
     albedo = np.array([scene.objects[i].material.kd for i in ids], dtype=np.float64)
-    direct, v_exact = exact_direct(ray, points, normals, albedo, coeffs, rays, eps, rng)
+    direct, v_exact = exact_direct(ray, points, normals, albedo, sh9_sky(coeffs), rays, eps, rng)
     n4 = np.c_[normals, np.ones(p)]
     e_sh = np.maximum(np.einsum("pi,cij,pj->pc", n4, irradiance, n4), 0.0)  # the injection's E(n), per channel
     area = np.bincount(tris.object_id, weights=tris.areas())
     power = area[ids] / np.bincount(ids)[ids] * albedo.mean(1)
+    seen_weight = camera_weights(ray, points, normals, scene.camera, eps) * power
+    seen = np.flatnonzero(seen_weight > 0.0)
+    object_albedo = np.array([o.material.kd for o in scene.objects], dtype=np.float64)
+    gathered = [np.zeros(p) for _ in range(3)]
+    if not uniform:
+        inj, (by_sh9, by_map) = gathered_direct(ray, tris, object_albedo, faces, lo, h, points[seen], normals[seen],
+                                                [sh9_sky(coeffs), map_sky(scene)], GATHER_RAYS, GATHER_RAYS, eps,
+                                                rng)
+        for g, values in zip(gathered, (inj, by_sh9, by_map), strict=True):
+            g[seen] = values
     return ConeRows(ids, cone[:, :3].mean(1).reshape(p, CONES), cone[:, 3].reshape(p, CONES),
                     ex_l.reshape(p, CONES), ex_a.reshape(p, CONES), cones.weights, hemisphere,
                     voxel_radiance(faces, lo, h, points, normals), direct,
                     (albedo / math.pi * e_sh).mean(1) * v_exact, probe[:, :3].mean(1), probe[:, 3], v_exact, power,
-                    points, normals, camera_weights(ray, points, normals, scene.camera, eps) * albedo.mean(1))
+                    points, seen_weight, *gathered)
 
 
 def ratio(a: np.ndarray, b: np.ndarray, w: np.ndarray | None = None) -> float:
@@ -412,10 +484,12 @@ def summary(rows: ConeRows, names: list[str], injection: bool, seed: int = 0) ->
     if rows.camera_weight.any():
         w = rows.camera_weight
         read = ratio(e_vct, rows.exact_irradiance, w)
-        injected = ratio(rows.injected, rows.exact_direct, w)
-        out += ["", f"seen by the camera: VCT / hemisphere {read:.3f} x injected / exact direct {injected:.3f} "
-                    f"= {read * injected:.3f} (an image's bounce over the path tracer's, up to the SH9 radiance's "
-                    "own error)"]
+        injected = ratio(rows.gathered_injected, rows.gathered_sh9, w)
+        sky = ratio(rows.gathered_sh9, rows.gathered_map, w)
+        out += ["", f"seen by the camera, each point's bounce as it gathers it (the light of the surfaces it sees): "
+                    f"read x quadrature {read:.3f} x injection {injected:.3f} (the injected radiance over the exact "
+                    f"direct light under SH9) x SH9 over the map {sky:.3f} = {read * injected * sky:.3f}, an image's "
+                    "bounce over the path tracer's"]
     return out
 
 
@@ -423,11 +497,12 @@ def band_lines(rows: ConeRows, count: int) -> list[str]:
     """VCT's gather (the shading's own cones) over the exact irradiance of the voxels' radiance in `count` bands
     of height, over the points that gather any bounce (exact irradiance > 0: bowl-diffuse's outside gathers none),
     each band's points weighted alike, with the exact irradiance's mean (a table)."""
-    out = ["| height (y) | points | exact irradiance, mean | VCT / exact |", "|---|---|---|---|"]
     gathers = rows.exact_irradiance > 0.0
-    heights = rows.points[gathers, 1]
-    edges = np.linspace(heights.min(), heights.max(), count + 1)
-    for b, m in enumerate(height_bands(heights, count)):
+    if not gathers.any():
+        return ["no point gathers a bounce: no bands"]
+    out = ["| height (y) | points | exact irradiance, mean | VCT / exact |", "|---|---|---|---|"]
+    edges, bands = height_bands(rows.points[gathers, 1], count)
+    for b, m in enumerate(bands):
         exact = rows.exact_irradiance[gathers][m]
         share = f"{rows.probe_irradiance[gathers][m].sum() / exact.sum():.3f}" if exact.sum() > 0.0 else "-"
         mean = f"{exact.mean():.4f}" if m.any() else "-"

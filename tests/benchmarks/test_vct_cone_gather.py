@@ -171,7 +171,8 @@ def test_exact_direct_light_under_a_linear_sky(normal):
     n = np.array([normal])
     # a small plane toward (-1, -1, -1), behind every normal's hemisphere: the intersector needs a triangle
     behind = triangles([quad([(-5.5, -5, -5.5), (-4.5, -5, -5.5), (-4.5, -5, -4.5), (-5.5, -5, -4.5)], (0, 1, 0))])
-    direct, v = model.exact_direct(model.scene_intersector(behind), np.zeros((1, 3)), n, kd, linear_sky(a, b),
+    direct, v = model.exact_direct(model.scene_intersector(behind), np.zeros((1, 3)), n, kd,
+                                   model.sh9_sky(linear_sky(a, b)),
                                    20000, 1e-6, np.random.default_rng(5))
     expected = kd.mean() * (a + 2.0 * b * n[0, 1] / 3.0)
     bound = 5.0 * kd.mean() * b / math.sqrt(20000)
@@ -186,7 +187,8 @@ def test_a_roof_shadows_the_direct_light():
     (a cosine-weighted share under 1e-7): no direct light. Control: the same point above the roof sees it all."""
     roof = triangles([quad([(-5e3, 1, -5e3), (5e3, 1, -5e3), (5e3, 1, 5e3), (-5e3, 1, 5e3)], (0, -1, 0))])
     ray = model.scene_intersector(roof)
-    up, kd, sky = np.array([[0.0, 1.0, 0.0]]), np.array([[0.5, 0.5, 0.5]]), linear_sky(1.0, 0.0)
+    up, kd = np.array([[0.0, 1.0, 0.0]]), np.array([[0.5, 0.5, 0.5]])
+    sky = model.sh9_sky(linear_sky(1.0, 0.0))
     direct, v = model.exact_direct(ray, np.zeros((1, 3)), up, kd, sky, 2000, 1e-6, np.random.default_rng(6))
     assert v[0] == 0.0 and direct[0] == 0.0
     direct, v = model.exact_direct(ray, np.array([[0.0, 2.0, 0.0]]), up, kd, sky, 2000, 1e-6,
@@ -217,6 +219,7 @@ BOWL_CENTRE = bowl_centre()
 
 
 def bowl_triangles() -> model.Triangles:
+    """meshes.bowl's triangles, one-sided, as the benchmark builds a scene's."""
     return model.scene_triangles([SimpleNamespace(mesh=bowl(), material=SimpleNamespace(two_sided=False))])
 
 
@@ -247,72 +250,146 @@ def depth_lit_grid(res: int, lo: float, voxel: float, base: float, slope: float)
 def test_every_point_inside_a_hemispherical_bowl_gathers_the_same_bounce(polar_deg, slope):
     """The radiance base + slope (c_y - y) / R over the bowl's inside: int_S L dA = 2 pi R^2 base + pi R^2 slope
     (the lower hemisphere's int -u_y dA is pi R^2), so every inner point gathers (pi / 2) base + (pi / 4) slope
-    (the derivation above), by ray casting within 3 % at the bottom, half way and near the rim. Control: the point
-    a third of the radius up toward the centre, facing up, sees more of the opening and gathers less."""
+    (the derivation above), by ray casting within 3 % at the bottom, half way and near the rim (measured within
+    1.2 %); the next test is its control."""
     tris = bowl_triangles()
     voxel, lo = 0.05, -1.0
     faces = depth_lit_grid(40, lo, voxel, 0.5, slope)
     expected = math.pi / 2 * 0.5 + math.pi / 4 * slope
-    ray, rng = model.scene_intersector(tris), np.random.default_rng(3)
     point, normal = inner_facet(tris, polar_deg)
-    e = model.exact_irradiance(ray, tris, faces, np.full(3, lo), voxel, point[None], normal[None], 4096, 1e-5, rng)
+    e = model.exact_irradiance(model.scene_intersector(tris), tris, faces, np.full(3, lo), voxel, point[None],
+                               normal[None], 4096, 1e-5, np.random.default_rng(3))
     assert e[0] == pytest.approx(expected, rel=0.03)
+
+
+@pytest.mark.parametrize("slope", [0.0, 1.0])
+def test_a_point_off_the_bowls_sphere_does_not_gather_the_same_bounce(slope):
+    """The control of the test above: the kernel is constant only between points of the sphere. A point a third
+    of the radius up from the bottom toward the centre, facing up, sees more of the opening: below 0.9 of the
+    inner points' bounce (measured 0.47-0.62)."""
+    tris = bowl_triangles()
+    voxel, lo = 0.05, -1.0
     bottom, _ = inner_facet(tris, 0.0)
     lifted = bottom + np.array([0.0, BOWL_INNER / 3.0, 0.0])
-    e_lifted = model.exact_irradiance(ray, tris, faces, np.full(3, lo), voxel, lifted[None],
-                                      np.array([[0.0, 1.0, 0.0]]), 4096, 1e-5, rng)
-    assert e_lifted[0] < 0.9 * expected
+    e = model.exact_irradiance(model.scene_intersector(tris), tris, depth_lit_grid(40, lo, voxel, 0.5, slope),
+                               np.full(3, lo), voxel, lifted[None], np.array([[0.0, 1.0, 0.0]]), 4096, 1e-5,
+                               np.random.default_rng(3))
+    assert e[0] < 0.9 * (math.pi / 2 * 0.5 + math.pi / 4 * slope)
+
+
+def toward(azimuth_deg: float, elevation_deg: float, distance: float = 2.0) -> np.ndarray:
+    """A point `distance` from the origin, `azimuth_deg` toward +x and `elevation_deg` toward +y off -z."""
+    a, e = math.radians(azimuth_deg), math.radians(elevation_deg)
+    return distance * np.array([math.sin(a) * math.cos(e), math.sin(e), -math.cos(a) * math.cos(e)])
 
 
 def test_camera_weights_count_the_pixels_a_unit_of_area_covers():
-    """Camera at the origin looking down -z, vertical fov 70 deg, twice as wide as high: a point 2 away on the
-    axis facing it covers 1/4 (up to the constant); turned 60 deg, 1/8; 30 deg off the axis sideways at distance
-    2, facing the camera, cos 0 / (4 cos^3 30 deg); facing away, 0; 40 deg off the axis upward (past the fov's
-    35 deg) or behind the camera, 0; behind a wall between it and the camera, 0 (without the wall: 1/4)."""
+    """Camera at the origin looking down -z, vertical fov 70 deg, an image twice as wide as high (horizontal
+    half-fov atan(2 tan 35 deg) = 54.5 deg): a point 2 away on the axis facing it covers 1/4 (up to the constant);
+    turned 60 deg, 1/8; facing the camera 30 deg or 45 deg off the axis sideways, or 30 deg upward, 1/4 over
+    cos^3 of that angle; 60 deg sideways or 40 deg upward (out of view), facing away, or behind the camera, 0."""
     camera = Camera(origin=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), fov_deg=70.0, width=200, height=100)
-    off = np.array([math.sin(math.radians(30.0)), 0.0, -math.cos(math.radians(30.0))]) * 2.0
-    above = np.array([0.0, math.sin(math.radians(40.0)), -math.cos(math.radians(40.0))]) * 2.0
-    points = np.array([[0.0, 0.0, -2.0], [0.0, 0.0, -2.0], off, [0.0, 0.0, -2.0], above, [0.0, 0.0, 2.0]])
+    ahead = toward(0.0, 0.0)
     turned = np.array([math.sin(math.radians(60.0)), 0.0, math.cos(math.radians(60.0))])
-    normals = np.array([[0.0, 0.0, 1.0], turned, -off / 2.0, [0.0, 0.0, -1.0], -above / 2.0, [0.0, 0.0, -1.0]])
+    offsets = [(30.0, 0.0), (45.0, 0.0), (0.0, 30.0), (60.0, 0.0), (0.0, 40.0)]
+    points = np.array([ahead, ahead, *[toward(a, e) for a, e in offsets], ahead, -ahead])
+    normals = np.array([[0.0, 0.0, 1.0], turned, *[-toward(a, e, 1.0) for a, e in offsets], [0.0, 0.0, -1.0],
+                        [0.0, 0.0, -1.0]])
     far = triangles([quad([(-5, -5, -50), (5, -5, -50), (5, 5, -50), (-5, 5, -50)], (0, 0, 1))])
     w = model.camera_weights(model.scene_intersector(far), points, normals, camera, 1e-6)
-    assert w == pytest.approx([0.25, 0.125, 0.25 / math.cos(math.radians(30.0)) ** 3, 0.0, 0.0, 0.0])
-    assert model.camera_weights(model.scene_intersector(far), points[4:5], normals[4:5],
-                                Camera(origin=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0), fov_deg=90.0),
-                                1e-6)[0] == pytest.approx(0.25 / math.cos(math.radians(40.0)) ** 3)
-    wall = triangles([quad([(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1)], (0, 0, 1))])
-    blocked = model.camera_weights(model.scene_intersector(wall), points[:1], normals[:1], camera, 1e-6)
-    assert blocked[0] == 0.0
+    off = [0.25 / math.cos(math.radians(x)) ** 3 for x in (30.0, 45.0, 30.0)]
+    assert w == pytest.approx([0.25, 0.125, *off, 0.0, 0.0, 0.0, 0.0])
+
+
+@pytest.mark.parametrize(("wall_z", "expected"), [(-1.0, 0.0), (1.0, 0.25), (-3.0, 0.25)])
+def test_only_what_lies_between_a_point_and_the_camera_hides_it(wall_z, expected):
+    """A wall across the view at z = -1, between the camera at the origin and the point at z = -2, hides it;
+    behind the camera (z = 1) or behind the point (z = -3) it does not."""
+    camera = Camera(origin=(0.0, 0.0, 0.0), target=(0.0, 0.0, -1.0))
+    wall = triangles([quad([(-1, -1, wall_z), (1, -1, wall_z), (1, 1, wall_z), (-1, 1, wall_z)], (0, 0, 1))])
+    w = model.camera_weights(model.scene_intersector(wall), np.array([[0.0, 0.0, -2.0]]),
+                             np.array([[0.0, 0.0, 1.0]]), camera, 1e-6)
+    assert w[0] == pytest.approx(expected)
+
+
+def test_a_point_under_a_lit_ceiling_gathers_its_direct_light():
+    """A one-sided ceiling 10^4 wide, 1 above a point facing up, its front down, kd 0.6, lit from below by a
+    constant sky of 1.5 that nothing else shadows: its direct radiance is kd 1.5, and the point, whose whole
+    hemisphere it fills (but for 1/5000 rad at the horizon), gathers pi kd 1.5. The voxels hold 0.9 there: the
+    point gathers pi 0.9 of them over the same rays. Control: the ceiling's front turned up, the rays meet its
+    back and gather nothing."""
+    sky = model.sh9_sky(linear_sky(1.5, 0.0))
+    faces = lit_grid(8, 0.9)
+    for front, expected in (((0, -1, 0), 1.0), ((0, 1, 0), 0.0)):
+        roof = triangles([quad([(-5e3, 1, -5e3), (5e3, 1, -5e3), (5e3, 1, 5e3), (-5e3, 1, 5e3)], front)])
+        injected, (direct,) = model.gathered_direct(
+            model.scene_intersector(roof), roof, np.array([[0.6, 0.6, 0.6]]), faces, np.array([-1e4, 0.5, -1e4]),
+            2.5e3, np.zeros((1, 3)), np.array([[0.0, 1.0, 0.0]]), [sky], 256, 64, 1e-6, np.random.default_rng(9))
+        assert direct[0] == pytest.approx(expected * math.pi * 0.6 * 1.5, rel=1e-6, abs=1e-9)
+        assert injected[0] == pytest.approx(expected * math.pi * 0.9, rel=1e-6, abs=1e-9)
 
 
 def test_height_bands_split_the_range_into_equal_bands():
     """Heights 0..1 into 4 bands: 0.1 in the first, 0.3 in the second, 0.5 in the third, 0.9 and the top 1.0 in
     the last; every height in exactly one band."""
     h = np.array([0.0, 0.1, 0.3, 0.5, 0.9, 1.0])
-    bands = model.height_bands(h, 4)
+    edges, bands = model.height_bands(h, 4)
+    assert edges == pytest.approx([0.0, 0.25, 0.5, 0.75, 1.0])
     assert [np.flatnonzero(b).tolist() for b in bands] == [[0, 1], [2], [3], [4, 5]]
     assert sum(b.astype(int) for b in bands).tolist() == [1] * 6
 
 
-def test_summary_weights_the_cones_and_the_objects():
-    """Two objects of two points each, every cone reading half the exact cone integral on the first and all of it
-    on the second, each exact integral 1 and the hemisphere pi: the read 0.5 and 1.0 (no spread: standard error
-    0), the quadrature 1 on both; "all" weighs the points by power weights 1 and 3: (0.5 + 3) / 4 = 0.875."""
+def two_object_rows(camera_weight: np.ndarray, gathered: tuple[np.ndarray, np.ndarray, np.ndarray]
+                    ) -> model.ConeRows:
+    """Two objects of two points each (heights 0, 1, 2, 3), every cone reading half the exact cone integral on the
+    first and all of it on the second, each exact integral 1 and the hemisphere pi; power weights 1 and 3."""
     w = np.full(model.CONES, math.pi / model.CONES)
     ids = np.array([0, 0, 1, 1])
     vct = np.repeat([[0.5], [0.5], [1.0], [1.0]], model.CONES, axis=1)
     ones = np.ones((4, model.CONES))
     per_point = np.ones(4)
-    rows = model.ConeRows(ids, vct, ones, ones, ones, w, np.full(4, math.pi), per_point, per_point, per_point,
-                          per_point, per_point, per_point, np.array([1.0, 1.0, 3.0, 3.0]), np.zeros((4, 3)),
-                          np.tile([0.0, 1.0, 0.0], (4, 1)), np.zeros(4))
+    points = np.c_[np.zeros(4), np.arange(4.0), np.zeros(4)]
+    return model.ConeRows(ids, vct, ones, ones, ones, w, np.full(4, math.pi), per_point, per_point, per_point,
+                          vct[:, 0] * math.pi, per_point, per_point, np.array([1.0, 1.0, 3.0, 3.0]), points,
+                          camera_weight, *gathered)
+
+
+def test_summary_weights_the_cones_and_the_objects():
+    """The read 0.5 and 1.0 (no spread: standard error 0), the quadrature 1 on both; "all" weighs the points by
+    their power weights: (0.5 + 3) / 4 = 0.875. No point seen by the camera: no row "seen", no product line."""
+    rows = two_object_rows(np.zeros(4), (np.zeros(4), np.zeros(4), np.zeros(4)))
     lines = model.summary(rows, ["a", "b"], injection=False)
     assert len(lines) == 5
     assert lines[2].startswith("| a | 0.500 ± 0.000 | 1.000 ± 0.000 | 0.500 ± 0.000 |")
     assert lines[3].startswith("| b | 1.000 ± 0.000 | 1.000 ± 0.000 | 1.000 ± 0.000 |")
     assert lines[4].startswith("| all | 0.875 ±")
     assert len(model.summary(rows, ["a", "b"], injection=True)) == 5 + 6
+
+
+def test_the_seen_row_weighs_the_points_as_the_camera_sees_them():
+    """The camera sees the first object's points with weight 3 and one of the second's with weight 1: the row
+    "seen" reads (3 0.5 + 1) / 4 = 0.625. The points gather injected 1.2 where the exact direct light under SH9
+    gives 1.0 and under the map 0.8 (on every seen point), so the product line reads 0.625 x 1.2 x 1.25 = 0.9375;
+    an unseen point's values (here 100) do not count."""
+    gathered = (np.array([1.2, 1.2, 1.2, 100.0]), np.array([1.0, 1.0, 1.0, 100.0]),
+                np.array([0.8, 0.8, 0.8, 1.0]))
+    rows = two_object_rows(np.array([1.5, 1.5, 1.0, 0.0]), gathered)
+    lines = model.summary(rows, ["a", "b"], injection=True)
+    assert lines[5].startswith("| seen | 0.625 ±")
+    assert lines[-1].startswith("seen by the camera")
+    assert "read x quadrature 0.625 x injection 1.200" in lines[-1]
+    assert "SH9 over the map 1.250 = 0.938" in lines[-1]
+
+
+def test_band_lines_read_vct_over_exact_by_height():
+    """Two bands over heights 0..3: the first holds the first object's points (VCT 0.5 of the exact), the second
+    the second's (1.0); where no point gathers any bounce, one line says so."""
+    rows = two_object_rows(np.zeros(4), (np.zeros(4), np.zeros(4), np.zeros(4)))
+    lines = model.band_lines(rows, 2)
+    assert lines[2] == "| 0.000 to 1.500 | 2 | 3.1416 | 0.500 |"
+    assert lines[3] == "| 1.500 to 3.000 | 2 | 3.1416 | 1.000 |"
+    dark = model.ConeRows(**{**rows.__dict__, "exact_irradiance": np.zeros(4)})
+    assert model.band_lines(dark, 2) == ["no point gathers a bounce: no bands"]
 
 
 @pytest.mark.gl
@@ -333,8 +410,8 @@ def test_a_lone_convex_spheres_injected_radiance_is_its_exact_direct_light(envir
     tris = model.scene_triangles(scene.objects)
     points, normals, ids = model.surface_points(tris, 64, rng)
     albedo = np.array([scene.objects[i].material.kd for i in ids], dtype=np.float64)
-    direct, v = model.exact_direct(model.scene_intersector(tris), points, normals, albedo, coeffs, 256,
-                                   model.ray_offset(tris), rng)
+    direct, v = model.exact_direct(model.scene_intersector(tris), points, normals, albedo, model.sh9_sky(coeffs),
+                                   256, model.ray_offset(tris), rng)
     n4 = np.c_[normals, np.ones(len(points))]
     analytic = (albedo / math.pi * np.einsum("pi,cij,pj->pc", n4, irradiance, n4)).mean(1)
     assert (v == 1.0).all()
