@@ -68,7 +68,7 @@ def crop_box(image: np.ndarray, mask: np.ndarray, margin: int) -> tuple[slice, s
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scene", default="torus-phong")
+    ap.add_argument("--scene", default="torus-phong", help="a builtin scene's name, or a scene file")
     ap.add_argument("--pixels", type=int, default=192)
     ap.add_argument("--subpixels", type=int, default=4)
     ap.add_argument("--spp", type=int, default=1024)
@@ -76,7 +76,8 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=Path("docs/images/vct-torus-bounce.png"))
     args = ap.parse_args()
     resolutions = [int(r) for r in args.resolutions.split(",")]
-    images, mask = one_bounce_images(f"builtin:{args.scene}", args.pixels, args.subpixels, args.spp, resolutions)
+    spec = args.scene if ":" in args.scene or args.scene.endswith(".toml") else f"builtin:{args.scene}"
+    images, mask = one_bounce_images(spec, args.pixels, args.subpixels, args.spp, resolutions)
     path = images["path"]
     peak = float(path[mask].max())
     print(f"{args.scene}, {args.pixels}^2 px ({args.subpixels}^2 samples a pixel), {int(mask.sum())} pixels; "
