@@ -125,19 +125,15 @@ def camera_weights(ray: Any, points: np.ndarray, normals: np.ndarray, camera: Ca
     normal at angle theta from the camera, subtends cos(theta) dA / d^2, and a pixel at angle phi off the view axis
     subtends (pixel area / focal length^2) cos^3(phi) (its plane's distance grows as 1 / cos phi and it is seen
     obliquely by cos phi), so it covers cos(theta) / (d^2 cos^3(phi)) pixels up to a constant; 0 where the point
-    lies outside the view (the vertical fov and the image's aspect), faces away from the camera or something lies
-    between them."""
-    origin = np.asarray(camera.origin, dtype=np.float64)
-    right, up, forward = camera.basis()
-    to_camera = origin - points
+    lies outside the image (`Camera.project`), faces away from the camera or something lies between them."""
+    to_camera = np.asarray(camera.origin, dtype=np.float64) - points
     d = np.linalg.norm(to_camera, axis=1)
     v = to_camera / d[:, None]
     cos_theta = np.einsum("pj,pj->p", normals, v)
-    depth = -to_camera @ forward
-    cos_phi = depth / d
-    tan_half = math.tan(math.radians(camera.fov_deg) / 2.0)
-    in_view = ((depth > 0.0) & (np.abs(-to_camera @ up) <= tan_half * depth)
-               & (np.abs(-to_camera @ right) <= tan_half * camera.aspect * depth))
+    cos_phi = -v @ camera.basis()[2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        col, row = np.moveaxis(camera.project(points), -1, 0)  # the image's own pixel convention
+    in_view = (cos_phi > 0.0) & (col >= 0.0) & (col <= camera.width) & (row >= 0.0) & (row <= camera.height)
     front = np.flatnonzero((cos_theta > 0.0) & in_view)
     if front.size == 0:
         return np.zeros(len(points))
@@ -146,7 +142,8 @@ def camera_weights(ray: Any, points: np.ndarray, normals: np.ndarray, camera: Ca
     loc, index_ray, _ = ray.intersects_location(points[front] + eps * v[front], v[front], multiple_hits=False)
     hit = front[index_ray]
     seen[hit[np.linalg.norm(loc - points[hit], axis=1) < d[hit] - eps]] = False  # met before the camera
-    return np.where(seen, cos_theta / (d ** 2 * np.maximum(cos_phi, 1e-6) ** 3), 0.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(seen, cos_theta / (d ** 2 * cos_phi ** 3), 0.0)
 
 
 def height_bands(heights: np.ndarray, count: int) -> tuple[np.ndarray, list[np.ndarray]]:
@@ -227,20 +224,28 @@ def voxel_radiance(faces: np.ndarray, lo: np.ndarray, voxel: float, points: np.n
     return np.where(best_a > 1e-6, best_rgb / np.maximum(best_a, 1e-6), 0.0)
 
 
-def hit_radiance(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, origins: np.ndarray,
-                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Rays (origins, directions: (M, 3)) cast with the intersector `ray`: (the voxels' radiance where each first
-    meets a surface, 0 where it escapes; whether it met one). A one-sided surface met from behind blocks and sends
-    nothing; a two-sided one sends the radiance of the side the ray meets."""
+def first_hits(ray: Any, tris: Triangles, origins: np.ndarray,
+               directions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where rays (origins, directions: (M, 3)) cast with the intersector `ray` first meet a surface: (the hits'
+    locations, the index of each hit's ray, its triangle, the triangle's normal on the side the ray meets, whether
+    that side sends light). A one-sided surface met from behind blocks and sends nothing; a two-sided one sends
+    from the side the ray meets."""
     loc, index_ray, index_tri = ray.intersects_location(origins, directions, multiple_hits=False)
-    radiance = np.zeros(len(origins))
-    hit = np.zeros(len(origins), dtype=bool)
-    hit[index_ray] = True
     n = tris.normals[index_tri]
     facing = np.einsum("mj,mj->m", n, directions[index_ray]) < 0.0
     two = tris.two_sided[tris.object_id[index_tri]]
-    n = np.where((~facing & two)[:, None], -n, n)
-    radiance[index_ray] = np.where(facing | two, voxel_radiance(faces, lo, voxel, loc, n), 0.0)
+    return loc, index_ray, index_tri, np.where((~facing & two)[:, None], -n, n), facing | two
+
+
+def hit_radiance(ray: Any, tris: Triangles, faces: np.ndarray, lo: np.ndarray, voxel: float, origins: np.ndarray,
+                 directions: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rays (origins, directions: (M, 3)) cast with the intersector `ray`: (the voxels' radiance where each first
+    meets a surface, 0 where it escapes or meets a side that sends nothing (`first_hits`); whether it met one)."""
+    loc, index_ray, _, n, sends = first_hits(ray, tris, origins, directions)
+    radiance = np.zeros(len(origins))
+    hit = np.zeros(len(origins), dtype=bool)
+    hit[index_ray] = True
+    radiance[index_ray] = np.where(sends, voxel_radiance(faces, lo, voxel, loc, n), 0.0)
     return radiance, hit
 
 
@@ -304,13 +309,7 @@ def gathered_direct(ray: Any, tris: Triangles, albedo: np.ndarray, faces: np.nda
     if p == 0:
         return np.zeros(0), [np.zeros(0) for _ in skies]
     d = cosine_directions(normals, count, rng).reshape(-1, 3)
-    loc, index_ray, index_tri = ray.intersects_location(np.repeat(points, count, axis=0) + eps * d, d,
-                                                        multiple_hits=False)
-    n = tris.normals[index_tri]
-    facing = np.einsum("mj,mj->m", n, d[index_ray]) < 0.0
-    two = tris.two_sided[tris.object_id[index_tri]]
-    n = np.where((~facing & two)[:, None], -n, n)
-    sends = facing | two
+    loc, index_ray, index_tri, n, sends = first_hits(ray, tris, np.repeat(points, count, axis=0) + eps * d, d)
     loc, n, index_ray, index_tri = loc[sends], n[sends], index_ray[sends], index_tri[sends]
     injected = np.zeros(p * count)
     injected[index_ray] = voxel_radiance(faces, lo, voxel, loc, n)
