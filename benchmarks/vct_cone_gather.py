@@ -58,7 +58,7 @@ import numpy as np
 import scenes
 from realtime.engine import transfer_rays
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 from scenes.environment import envmap
@@ -327,11 +327,8 @@ def voxelise(scene: Scene, resolution: int) -> tuple[VoxelScene, np.ndarray, np.
     environment as SH9 from a 64^2 filter, as E10's probes do): (the voxels, which the caller releases, the SH9
     radiance coefficients (9, 3), the irradiance matrices M (3, 4, 4) the injection's E(n) = n^T M n uses)."""
     ctx = get_context()
-    env = environment_store(ctx, scene)
+    env = filled_store(ctx, scene)
     try:
-        env.fill_base(scene.environment.rotation_deg)
-        env.build_chain(None)
-        env.project_sh(64)
         vs = VoxelScene(ctx, scene.objects, resolution, 1, CONES, 0.5)
         vs.update(None, env.sh_buffer)
         coeffs, irradiance = env.read_sh()

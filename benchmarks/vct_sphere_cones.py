@@ -21,7 +21,7 @@ import numpy as np
 
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import NORMAL_OFFSET_VOXELS, START_OFFSET_VOXELS, VoxelScene
 
@@ -44,12 +44,9 @@ def blocked_share(axis: np.ndarray, half_angle: float, centre: np.ndarray, radiu
 def cones_under_sphere(ctx, height: float, resolution: int, starts: list[float]) -> dict:
     """The six cones' reads from the plane's point under a sphere centred at `height` (one cascade)."""
     scene = scenes.load("builtin:sphere-on-plane").with_overrides({"objects.0.translate": [0.0, height, 0.0]})
-    env = environment_store(ctx, scene)
+    env = filled_store(ctx, scene)
     vs = None
     try:
-        env.fill_base(scene.environment.rotation_deg)
-        env.build_chain(None)
-        env.project_sh(64)
         vs = VoxelScene(ctx, scene.objects, resolution, 1, 6, 0.5)
         vs.update(None, env.sh_buffer)
         h = vs.grid.voxel_size

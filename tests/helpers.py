@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment.directions import equirect_directions
@@ -87,10 +87,7 @@ def scene_voxels(ctx, scene: Scene, resolution: int, objects: list | None = None
                  grid: vct_math.Cascades | None = None) -> VoxelScene:
     """The scene's objects (or `objects`) voxelised and injected at `resolution`^3, one cascade (or `grid`), six
     cones, step 0.5, under the scene's environment (its SH9 from a 64^2 filter); the caller releases the voxels."""
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
+    env = filled_store(ctx, scene)
     vs = VoxelScene(ctx, scene.objects if objects is None else objects, resolution, 1, 6, 0.5, grid=grid)
     vs.update(None, env.sh_buffer)
     env.release()

@@ -46,7 +46,7 @@ from experiments.publish.plots import frame_ms
 from experiments.publish.report import Section, f2, f3, f4, unbiased_cell
 from groundtruth.pathtracer import reference
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment.directions import rotation_xyz
@@ -291,10 +291,7 @@ def thin_wall_leak(resolutions: tuple[int, ...] = (32, 64), cascades: int = 1, o
     scene = scenes.load("builtin:thin-wall")
     objects, inside, outside, up = thin_wall_probes(scene, rotate_deg)
     lo, hi = vct.scene_bounds(objects)
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
+    env = filled_store(ctx, scene)
     _, M = env.read_sh()
     n4 = np.append(up, 1.0)
     sky = np.array([n4 @ M[c] @ n4 for c in range(3)])  # the unoccluded SH9 irradiance facing up

@@ -55,6 +55,21 @@ def environment_store(ctx: moderngl.Context, scene):
     return MapStore(ctx, env, rt.base_size, MAPPINGS[rt.parameterization], map_frame(scene))
 
 
+def filled_store(ctx: moderngl.Context, scene, sh_face_size: int = 64):
+    """The scene's environment store (`environment_store`) filled as a frame fills it, for work outside a frame
+    (a voxel scene's injection, measurements): the base at the map's rotation, the whole box chain, and the SH9
+    projected from a `sh_face_size`^2 filter. The caller releases it."""
+    env = environment_store(ctx, scene)
+    try:
+        env.fill_base(scene.environment.rotation_deg)
+        env.build_chain(None)
+        env.project_sh(sh_face_size)
+    except BaseException:
+        env.release()
+        raise
+    return env
+
+
 def map_frame(scene) -> np.ndarray:
     """World -> map rotation (3, 3): the identity for the dual paraboloid; the capture view's eye space
     for the sphere map (`capture = "camera"`: the scene camera; a direction: a camera looking along it

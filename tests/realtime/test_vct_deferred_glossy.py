@@ -55,7 +55,7 @@ import pytest
 import realtime
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import lobe_table, vct_math
 from realtime.techniques.vct.vct import VoxelScene
 from scenes.environment import directions, envmap
@@ -91,10 +91,7 @@ def voxels(overrides: dict, exponent: float, deferred: bool):
     (VoxelScene, its environment store, the map's world +x direction e from the reference's own lookup)."""
     ctx = get_context()
     scene = scenes.load("builtin:sphere-on-plane").with_overrides(overrides)
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
+    env = filled_store(ctx, scene)
     phong = dataclasses.replace(scenes.load("builtin:torus-phong").objects[0].material, ks=(KS,) * 3,
                                 exponent=exponent)
     plane = SimpleNamespace(mesh=scene.objects[1].mesh, material=phong)

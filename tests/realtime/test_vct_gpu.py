@@ -38,7 +38,7 @@ import realtime
 import scenes
 from realtime.engine import gpu, limits
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene, scene_bounds
 from scenes.environment.shbasis import sh9
@@ -55,11 +55,7 @@ def ctx():
 
 def sh_of(ctx, scene):
 
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
-    return env
+    return filled_store(ctx, scene)
 
 
 def irradiance_up(env) -> np.ndarray:
@@ -256,10 +252,7 @@ def test_a_bounce_pass_only_adds_light_to_the_direct_pass(ctx, monkeypatch, cont
                 plain(prog, "lod_min", value)
         monkeypatch.setattr(vct, "set_uniform", old_rule)
     scene = scenes.load("builtin:cornell-open")
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
+    env = filled_store(ctx, scene)
     faces = {}
     for bounces in (1, 2):
         vs = VoxelScene(ctx, scene.objects, 32, 1, 6, 0.5, bounces=bounces, env_filter=env)

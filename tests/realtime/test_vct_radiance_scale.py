@@ -22,7 +22,7 @@ import pytest
 
 import scenes
 from realtime.engine.context import get_context
-from realtime.engine.environment_maps import environment_store
+from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
 
@@ -47,10 +47,7 @@ def gathered(ctx, env_scale: float, monkeypatch=None, deferred: bool = False) ->
         "environment.map": "builtin:sky", "environment.params": {"sun": 1e3}, "environment.scale": env_scale})
     objects = [dataclasses.replace(o, material=dataclasses.replace(o.material, exponent=1000.0))
                for o in scene.objects]
-    env = environment_store(ctx, scene)
-    env.fill_base(scene.environment.rotation_deg)
-    env.build_chain(None)
-    env.project_sh(64)
+    env = filled_store(ctx, scene)
     vs = VoxelScene(ctx, objects, 32, 1, 6, 0.5, env_filter=env, deferred_glossy=deferred)
     vs.update(None, env.sh_buffer)
     rng = np.random.default_rng(7)
