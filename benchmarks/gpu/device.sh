@@ -5,6 +5,7 @@
 #   device.sh receive NN     append .gpu/part-NN/payload.part (carried with that call) to the payload
 #   device.sh install        check the payload's SHA-256, unpack the GL loaders and install the wheels
 #   device.sh run ARGS...    `iblcheck paper ARGS...` with NVIDIA's EGL, then the rows and the report to $OUT
+#   device.sh script PY ARGS...  `python PY ARGS...` in the same environment (e.g. benchmarks/gpu/e10_frames.py)
 #
 # Nothing here downloads anything: the machine reaches no registry. Where it keeps things between calls:
 # $IBLCHECK_GPU_HOME (default /opt/iblcheck). Tested on a CPU machine too, with Python 3.12 and Mesa's EGL
@@ -17,6 +18,17 @@ step=${1:-}
 shift || true
 
 die() { echo "device.sh: $*" >&2; exit 2; }
+
+# the installed wheels and this checkout on the path, NVIDIA's EGL vendor library where the driver has one
+installed_env() {
+  export PYTHONPATH="$HOME_DIR/site:$PWD${PYTHONPATH:+:$PYTHONPATH}"
+  export IBLCHECK_CACHE=${IBLCHECK_CACHE:-$HOME_DIR/cache}
+  local nvidia=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
+  if [ -f "$nvidia" ] && [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ]; then
+    export __EGL_VENDOR_LIBRARY_FILENAMES=$nvidia
+  fi
+  "$PYTHON" -c "from realtime.engine.context import renderer_name; print('OpenGL renderer:', renderer_name())"
+}
 
 case "$step" in
   receive)
@@ -47,21 +59,22 @@ case "$step" in
     ;;
   run)
     : "${OUT:?OUT (the folder whose files come back) is not set}"
-    export PYTHONPATH="$HOME_DIR/site:$PWD${PYTHONPATH:+:$PYTHONPATH}"
-    export IBLCHECK_CACHE=${IBLCHECK_CACHE:-$HOME_DIR/cache}
-    nvidia=/usr/local/nvidia/share/glvnd/egl_vendor.d/10_nvidia.json
-    if [ -f "$nvidia" ] && [ -z "${__EGL_VENDOR_LIBRARY_FILENAMES:-}" ]; then
-      export __EGL_VENDOR_LIBRARY_FILENAMES=$nvidia
-    fi
+    installed_env
     out="$HOME_DIR/out"
-    "$PYTHON" -c "from realtime.engine.context import renderer_name; print('OpenGL renderer:', renderer_name())"
     "$PYTHON" -m experiments.cli paper --out "$out" "$@"
     for f in results.jsonl summary.md experiments.json; do
       [ -f "$out/$f" ] && cp "$out/$f" "$OUT/$f"
     done
     if [ -d "$out/figures" ]; then tar -czf "$OUT/figures.tar.gz" -C "$out" figures; fi
     ;;
+  script)
+    py=${1:?usage: device.sh script PY ARGS...}
+    shift
+    [ -f "$py" ] || die "$py: no such script in this checkout"
+    installed_env
+    "$PYTHON" "$py" "$@"
+    ;;
   *)
-    die "usage: device.sh receive NN | install | run PAPER-ARGS..."
+    die "usage: device.sh receive NN | install | run PAPER-ARGS... | script PY ARGS..."
     ;;
 esac

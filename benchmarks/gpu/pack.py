@@ -36,6 +36,9 @@ ROOT = HERE.parents[1]
 #: what iblcheck imports at run time beyond the GPU machine's own packages (pyproject's dependencies)
 NEEDED = ("mitsuba", "drjit", "moderngl", "glcontext", "OpenEXR", "flip-evaluator", "trimesh", "embreex",
           "dask", "distributed")
+#: what the real-time renderer alone imports (benchmarks/gpu/e10_frames.py): no path tracer, no Dask, so the
+#: payload fits one transfer with the tree and the whole run is one call
+REALTIME_NEEDED = ("moderngl", "glcontext", "OpenEXR", "flip-evaluator", "trimesh", "embreex")
 PLATFORMS = ("manylinux_2_28_x86_64", "manylinux_2_27_x86_64", "manylinux_2_17_x86_64", "manylinux2014_x86_64",
              "manylinux_2_5_x86_64", "manylinux1_x86_64")
 GL_DEBS = ("libglvnd0", "libegl1", "libopengl0", "libgl1", "libglx0", "libgles2")
@@ -94,6 +97,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--part-mib", type=float, default=40.0, help="largest part carried in one transfer (MiB)")
     ap.add_argument("--cache-from", type=Path, help="a reference cache folder whose entries to carry")
     ap.add_argument("--no-debs", action="store_true", help="skip the GL loader packages (apt-get download)")
+    ap.add_argument("--realtime-only", action="store_true",
+                    help="only what the real-time renderer needs (no Mitsuba, Dr.Jit or Dask): one part")
     args = ap.parse_args(argv)
 
     out: Path = args.out
@@ -101,8 +106,9 @@ def main(argv: list[str] | None = None) -> int:
     payload = out / "payload"
     (payload / "wheels").mkdir(parents=True)
     present = device_packages()
+    needed = REALTIME_NEEDED if args.realtime_only else NEEDED
     with tempfile.TemporaryDirectory() as tmp:
-        download_wheels(pinned(NEEDED), Path(tmp))
+        download_wheels(pinned(needed), Path(tmp))
         for w in Path(tmp).glob("*.whl"):
             if wheel_project(w) not in present:
                 shutil.copy2(w, payload / "wheels" / w.name)
@@ -120,7 +126,8 @@ def main(argv: list[str] | None = None) -> int:
     tar.unlink()
     manifest = {
         "python": "3.12",
-        "versions": {n: metadata.version(n) for n in NEEDED},
+        "versions": {n: metadata.version(n) for n in needed},
+        "realtime_only": args.realtime_only,
         "wheels": sorted(w.name for w in (payload / "wheels").glob("*.whl")),
         "gl_debs": sorted(p.name for p in (payload / "gl").glob("*.deb")),
         "cache_entries": len(list((payload / "cache").glob("*.npz"))) if args.cache_from else 0,

@@ -107,3 +107,39 @@ def test_device_refuses_a_part_that_was_not_carried(tmp_path):
 def test_device_usage(tmp_path, args):
     done = device(tmp_path, tmp_path / "home", *args)
     assert done.returncode == 2 and "usage" in done.stderr
+
+
+def test_the_real_time_renderer_imports_nothing_the_realtime_only_payload_leaves_out():
+    # `pack.py --realtime-only` carries REALTIME_NEEDED alone; e10_frames.py, which runs on it, must import
+    # none of the rest (a module-level `import mitsuba` anywhere on its path would fail on the GPU machine)
+    left_out = sorted({pack.canonical(n) for n in pack.NEEDED} - {pack.canonical(n) for n in pack.REALTIME_NEEDED})
+    assert {"mitsuba", "drjit", "dask"} <= set(left_out)
+    code = ("import importlib.util, sys; from importlib import metadata\n"
+            "s = importlib.util.spec_from_file_location('e10_frames', 'benchmarks/gpu/e10_frames.py')\n"
+            "s.loader.exec_module(importlib.util.module_from_spec(s))\n"
+            "dists = metadata.packages_distributions()\n"
+            "print(' '.join(sorted({d for m in sys.modules for d in dists.get(m.split('.')[0], [])})))")
+    done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    imported = {pack.canonical(d) for d in done.stdout.split()}
+    assert "moderngl" in imported  # the control: the check sees what the script does import
+    assert not imported & set(left_out), imported & set(left_out)
+
+
+@pytest.mark.gl
+def test_device_script_step_runs_a_script_with_the_installed_wheels(tmp_path):
+    repo = packed(tmp_path, 1 << 20)
+    home = tmp_path / "home"
+    assert device(repo, home, "receive", "00").returncode == 0
+    assert device(repo, home, "install").returncode == 0
+    script = tmp_path / "probe.py"
+    script.write_text("import sys, tinygpu; print('value', tinygpu.VALUE, sys.argv[1:])\n")
+    env = {**os.environ, "PYTHON": sys.executable, "IBLCHECK_GPU_HOME": str(home)}
+    done = subprocess.run(["bash", str(DEVICE), "script", str(script), "a", "b"], cwd=ROOT, env=env,
+                          capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    assert "OpenGL renderer:" in done.stdout  # which GL the rows will come from, printed first
+    assert "value 42 ['a', 'b']" in done.stdout
+    missing = subprocess.run(["bash", str(DEVICE), "script", "no/such.py"], cwd=ROOT, env=env,
+                             capture_output=True, text=True)
+    assert missing.returncode == 2 and "no/such.py" in missing.stderr
