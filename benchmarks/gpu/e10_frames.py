@@ -1,0 +1,271 @@
+"""E10's real-time rows timed on whatever GL this machine has, and two such runs compared.
+
+    python benchmarks/gpu/e10_frames.py measure --out DIR [--frames 20] [--warmup 3] [--size 1920x1080]
+    python benchmarks/gpu/e10_frames.py compare GPU_DIR CPU_DIR [--markdown FILE]
+    python benchmarks/gpu/e10_frames.py ladder GPU_DIR --summary reports/paper/summary.md --out FIG.png
+
+`measure` renders every real-time row of E10 (experiments/paper/e10_voxel_cone_tracing.py, its FULL
+settings: the paper's direct light, VCT's occlusion with and without interreflection over its resolution x
+cascades x cones grid, PRT with a bounce, the light array with shadow maps) on cornell-open, bowl-diffuse
+and torus-phong, at E10's image size (192 x 192) and at each `--size`. Per row it keeps the frame's timings (medians
+over `--frames` frames after `--warmup`, realtime/engine/frame.py) in DIR/frames.json, rewritten after every
+row so that a run stopped at its time limit keeps what it finished, and the 192 x 192 images in
+DIR/images.npz (float16 linear RGB and the coverage mask). Nothing here needs Mitsuba: the accuracy of each
+row is E10's, measured against the path tracer on llvmpipe (reports/paper/summary.md).
+
+`compare` sets a GPU run beside an llvmpipe run of the same rows: each row's frame time on both, their
+ratio, and the GPU image against llvmpipe's (PSNR of the displayed images over the pixels both cover, and
+the pixels only one covers). The two GLs run the same shaders on the same inputs, so the images must agree
+to within float rounding and filtering: an axis flip, a face swap or a missing pass shows as a PSNR near the
+images' own contrast, not 40 dB and more.
+
+`ladder` draws E10's accuracy-time ladder with the GPU's milliseconds: per scene, each row's unbiased PSNR
+against the path tracer (E10's, read from its table in the paper summary; valid for the GPU's image where
+`compare` finds it the same as llvmpipe's) against its GPU frame time at 192 x 192 and at the larger size.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+import warnings
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+import realtime
+import scenes
+from experiments.measure import metrics
+from experiments.paper import context
+from experiments.paper import e10_voxel_cone_tracing as e10
+from experiments.publish import plots
+from realtime.engine.context import is_software, renderer_name
+from realtime.engine.frame import TechniqueNotRunWarning
+from realtime.engine.technique import UnsimulatedEffectWarning
+
+#: PSNR of the GPU's displayed image against llvmpipe's under which a row is flagged as disagreeing: float
+#: rounding and the two GLs' texture filtering leave differences far below it, a convention error far above
+AGREE_DB = 40.0
+
+
+ROOT = Path(__file__).resolve().parents[2]
+#: E10's image size (its rows' PSNR are measured at it): every row is timed at it, and its images kept
+E10_SIZE = (context.FULL.size, context.FULL.size)
+
+
+def row_key(scene: str, overrides: dict, size: tuple[int, int]) -> str:
+    """One row's name, the same on every machine: scene, its overrides sorted, and the image size."""
+    parts = [scene] + [f"{k.removeprefix('realtime.')}={v}" for k, v in sorted(overrides.items())]
+    return " ".join([*parts, f"{size[0]}x{size[1]}"])
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: expected WIDTHxHEIGHT, e.g. 1920x1080") from None
+    if w < 1 or h < 1:
+        raise argparse.ArgumentTypeError(f"--size {text!r}: width and height must be positive")
+    return w, h
+
+
+def rows(sizes: list[tuple[int, int]], only: list[str] | None = None
+         ) -> list[tuple[str, str, dict, tuple[int, int]]]:
+    """(scene name, scene spec, overrides, size) of every row (of the scenes named in `only`, if given): all
+    scenes at E10's size first, then at each of `sizes`."""
+    unknown = sorted(set(only or ()) - {name for name, _ in e10.SCENES})
+    if unknown:
+        raise ValueError(f"--scene {', '.join(unknown)}: E10's scenes are {', '.join(n for n, _ in e10.SCENES)}")
+    out = []
+    for size in dict.fromkeys([E10_SIZE, *sizes]):
+        for name, spec in e10.SCENES:
+            if not only or name in only:
+                out += [(name, spec, ov, size) for ov in e10.configs(e10.FULL, spec)]
+    return out
+
+
+def measure(out: Path, frames: int, warmup: int, sizes: list[tuple[int, int]], only: list[str] | None = None
+            ) -> None:
+    out.mkdir(parents=True, exist_ok=True)
+    # E10's rows are known to leave effects out (the direct row has no occlusion): one line each is noise here
+    warnings.simplefilter("ignore", UnsimulatedEffectWarning)
+    warnings.simplefilter("ignore", TechniqueNotRunWarning)
+    doc: dict = {"gl": renderer_name(), "software_gl": is_software(), "frames": frames, "warmup_frames": warmup,
+                 "rows": []}
+    images: dict[str, np.ndarray] = {}
+    todo = rows(sizes, only)
+    t_start = time.perf_counter()
+    print(f"OpenGL renderer: {doc['gl']}; {len(todo)} rows", flush=True)
+    for i, (name, spec, ov, size) in enumerate(todo):
+        scene = scenes.load(spec)
+        extra = {"realtime.timing_frames": frames, "realtime.warmup_frames": warmup,
+                 "camera.width": size[0], "camera.height": size[1]}
+        t0 = time.perf_counter()
+        r = realtime.render(scene.with_overrides({**ov, **extra}))
+        key = row_key(name, ov, size)
+        doc["rows"].append({
+            "key": key, "scene": name, "overrides": ov, "size": list(r.rgb.shape[1::-1]),
+            "mode": e10.mode(SimpleNamespace(techniques=r.meta["techniques"])),
+            "setting": e10.setting(SimpleNamespace(overrides=ov)), "timings": r.timings,
+            "wall_s": time.perf_counter() - t0})
+        if size == E10_SIZE:
+            images[f"{key}|rgb"] = np.nan_to_num(r.rgb, nan=0.0, posinf=0.0, neginf=0.0).astype(np.float16)
+            images[f"{key}|mask"] = r.mask
+            np.savez_compressed(out / "images.npz", **images)
+        (out / "frames.json").write_text(json.dumps(doc, indent=1) + "\n")
+        print(f"[{i + 1}/{len(todo)}] {time.perf_counter() - t_start:7.1f} s  {key}: "
+              f"{r.timings['total']:.3f} ms", flush=True)
+
+
+def load(folder: Path) -> tuple[dict, dict[str, np.ndarray]]:
+    doc = json.loads((folder / "frames.json").read_text())
+    path = folder / "images.npz"
+    images = dict(np.load(path)) if path.exists() else {}
+    return doc, images
+
+
+def agreement(gpu_rgb: np.ndarray, gpu_mask: np.ndarray, cpu_rgb: np.ndarray, cpu_mask: np.ndarray,
+              scene) -> tuple[float | None, int]:
+    """(PSNR of the GPU's displayed image against the CPU's over the pixels both cover, pixels one covers)."""
+    both = gpu_mask & cpu_mask
+    shown_gpu = metrics.display(scene, gpu_rgb.astype(np.float32))
+    shown_cpu = metrics.display(scene, cpu_rgb.astype(np.float32))
+    return metrics.psnr(shown_gpu, shown_cpu, both), int((gpu_mask ^ cpu_mask).sum())
+
+
+def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
+    """Markdown lines: one table row per row of the GPU run, beside the CPU run's where it has it, and a closing
+    line on the images (how many compared, the lowest PSNR, those under AGREE_DB)."""
+    gpu, gpu_images = load(gpu_dir)
+    cpu, cpu_images = load(cpu_dir)
+    cpu_rows = {r["key"]: r for r in cpu["rows"]}
+    loaded: dict[str, object] = {}
+    lines = [f"GPU: {gpu['gl']} ({gpu['frames']} timed frames after {gpu['warmup_frames']}); "
+             f"CPU: {cpu['gl']} ({cpu['frames']} after {cpu['warmup_frames']}). Milliseconds are medians; "
+             "the CPU's are llvmpipe's, that is CPU time. `trace` is the shading pass's ms less the direct row's.",
+             "",
+             "| scene | size | mode | resolution x cascades x cones | GPU frame ms | CPU frame ms | CPU / GPU "
+             "| GPU voxelize ms | GPU trace ms | image PSNR dB, GPU vs CPU | pixels one covers |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    direct = {(r["scene"], tuple(r["size"])): r["timings"]["draw"] for r in gpu["rows"]
+              if r["mode"] == "direct (paper)"}
+    agreed: list[tuple[float, str]] = []
+
+    def cell(v: float | None, fmt: str = "{:.2f}") -> str:
+        return "-" if v is None else fmt.format(v)
+
+    for r in gpu["rows"]:
+        c = cpu_rows.get(r["key"])
+        t = r["timings"]
+        setting = "x".join(str(v) for v in r["setting"]) if r["setting"] else "-"
+        base = direct.get((r["scene"], tuple(r["size"])))
+        trace = t["draw"] - base if r["setting"] and base is not None else None
+        psnr, differ = None, None
+        if c and f"{r['key']}|rgb" in gpu_images and f"{r['key']}|rgb" in cpu_images:
+            if r["scene"] not in loaded:
+                loaded[r["scene"]] = scenes.load(dict(e10.SCENES)[r["scene"]])
+            psnr, differ = agreement(gpu_images[f"{r['key']}|rgb"], gpu_images[f"{r['key']}|mask"],
+                                     cpu_images[f"{r['key']}|rgb"], cpu_images[f"{r['key']}|mask"],
+                                     loaded[r["scene"]])
+            if psnr is not None:
+                agreed.append((psnr, r["key"]))
+        cpu_ms = c["timings"]["total"] if c else None
+        lines.append(
+            f"| {r['scene']} | {r['size'][0]}x{r['size'][1]} | {r['mode']} | {setting} | {t['total']:.2f} "
+            f"| {cell(cpu_ms)} | {cell(cpu_ms / t['total'] if cpu_ms else None, '{:.0f}')} "
+            f"| {cell(t.get('voxelize'))} | {cell(trace)} | {cell(psnr)} | {cell(differ, '{}')} |")
+    if agreed:
+        low, key = min(agreed)
+        under = [k for v, k in agreed if v < AGREE_DB]
+        lines += ["", f"Images: {len(agreed)} rows compared; the lowest PSNR {low:.2f} dB ({key}); "
+                  + (f"{len(under)} under {AGREE_DB:.0f} dB: {'; '.join(under)}." if under
+                     else f"all at {AGREE_DB:.0f} dB or more.")]
+    return lines
+
+
+def e10_psnr(summary: str) -> dict[tuple[str, str, tuple[int, int, int] | None], float]:
+    """{(scene, mode, (resolution, cascades, cones) or None): unbiased PSNR dB} from E10's row table in the
+    paper summary (reports/paper/summary.md, written by experiments/paper/e10_voxel_cone_tracing.py)."""
+    section = summary.split("\n## E10 ", 1)[1].split("\n## ", 1)[0]
+    names = {name for name, _ in e10.SCENES}
+    out = {}
+    for line in section.splitlines():
+        cells = [c.strip().replace("\\", "") for c in line.strip().strip("|").split("|")]
+        if len(cells) != 12 or cells[0] not in names or cells[1] not in e10.MODES:
+            continue
+        setting = tuple(int(c) for c in cells[2:5]) if cells[2] != "-" else None
+        out[(cells[0], cells[1], setting)] = float(cells[5].split()[0])
+    return out
+
+
+def plot_ladder(gpu_dir: Path, summary: Path, path: Path) -> None:
+    """One panel per scene: E10's unbiased PSNR against the GPU's frame ms (log), filled at 192 x 192, open at
+    the larger size, one colour per mode."""
+    plt = plots.pyplot()
+    gpu, _ = load(gpu_dir)
+    psnr = e10_psnr(summary.read_text())
+    fig, axes = plt.subplots(1, len(e10.SCENES), figsize=(5.2 * len(e10.SCENES), 4.4), squeeze=False)
+    colours = {m: f"C{k}" for k, m in enumerate(e10.MODES)}
+    larger = ", ".join(dict.fromkeys(f"{w}x{h}" for w, h in (r["size"] for r in gpu["rows"]) if (w, h) != E10_SIZE))
+    gl = gpu["gl"].split("/")[0].strip()
+    for ax, (name, _) in zip(axes[0], e10.SCENES, strict=True):
+        for r in gpu["rows"]:
+            if r["scene"] != name:
+                continue
+            key = (name, r["mode"], tuple(r["setting"]) if r["setting"] else None)
+            if key not in psnr:
+                continue
+            small = tuple(r["size"]) == E10_SIZE
+            ax.scatter(r["timings"]["total"], psnr[key], s=28, marker="o",
+                       facecolors=colours[r["mode"]] if small else "none", edgecolors=colours[r["mode"]])
+        ax.set_xscale("log")
+        ax.set_title(name)
+        ax.set_xlabel(f"frame ms on {gl}: filled {E10_SIZE[0]}x{E10_SIZE[1]}" + (f", open {larger}" if larger else ""))
+        ax.set_ylabel("unbiased PSNR dB (E10)")
+        ax.grid(True, which="both", alpha=0.3)
+    handles = [plt.Line2D([], [], marker="o", ls="", color=colours[m], label=m) for m in e10.MODES]
+    axes[0][1].legend(handles=handles, fontsize=8, loc="center left")  # bowl-diffuse's empty middle
+    plots.save(fig, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    sub = ap.add_subparsers(dest="command", required=True)
+    m = sub.add_parser("measure", help="time E10's real-time rows here")
+    m.add_argument("--out", type=Path, required=True)
+    m.add_argument("--frames", type=int, default=20)
+    m.add_argument("--warmup", type=int, default=3)
+    m.add_argument("--size", type=parse_size, action="append", default=[],
+                   help="also time every row at WIDTHxHEIGHT (images are kept at E10's 192x192 only)")
+    m.add_argument("--scene", action="append", help="only this E10 scene (repeatable; default all three)")
+    c = sub.add_parser("compare", help="a GPU run beside a CPU run of the same rows")
+    c.add_argument("gpu", type=Path)
+    c.add_argument("cpu", type=Path)
+    c.add_argument("--markdown", type=Path)
+    lad = sub.add_parser("ladder", help="E10's PSNR against the GPU's frame ms, one panel per scene")
+    lad.add_argument("gpu", type=Path)
+    lad.add_argument("--summary", type=Path, default=ROOT / "reports" / "paper" / "summary.md")
+    lad.add_argument("--out", type=Path, required=True)
+    args = ap.parse_args(argv)
+    if args.command == "ladder":
+        plot_ladder(args.gpu, args.summary, args.out)
+        return 0
+    if args.command == "measure":
+        try:
+            measure(args.out, args.frames, args.warmup, args.size, args.scene)
+        except ValueError as e:
+            print(f"e10_frames: {e}", file=sys.stderr)
+            return 2
+        return 0
+    lines = compare(args.gpu, args.cpu)
+    print("\n".join(lines))
+    if args.markdown:
+        args.markdown.write_text("\n".join(lines) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
