@@ -1,7 +1,7 @@
 """E10's real-time rows timed on whatever GL this machine has, and two such runs compared.
 
     python benchmarks/gpu/e10_frames.py measure --out DIR [--frames 20] [--warmup 3] [--size 1920x1080]
-    python benchmarks/gpu/e10_frames.py compare GPU_DIR CPU_DIR [--markdown FILE]
+    python benchmarks/gpu/e10_frames.py compare GPU_DIR CPU_DIR [--markdown FILE] [--figure FIG.png]
     python benchmarks/gpu/e10_frames.py ladder GPU_DIR --summary reports/paper/summary.md --out FIG.png
 
 `measure` renders every real-time row of E10 (experiments/paper/e10_voxel_cone_tracing.py, its FULL
@@ -17,7 +17,8 @@ row is E10's, measured against the path tracer on llvmpipe (reports/paper/summar
 ratio, and the GPU image against llvmpipe's (PSNR of the displayed images over the pixels both cover, and
 the pixels only one covers). The two GLs run the same shaders on the same inputs, so the images must agree
 to within float rounding and filtering: an axis flip, a face swap or a missing pass shows as a PSNR near the
-images' own contrast, not 40 dB and more.
+images' own contrast, not 40 dB and more. `--figure` draws, per scene, the row whose images differ most: both
+images as displayed and where they differ.
 
 `ladder` draws E10's accuracy-time ladder with the GPU's milliseconds: per scene, each row's unbiased PSNR
 against the path tracer (E10's, read from its table in the paper summary; valid for the GPU's image where
@@ -186,6 +187,42 @@ def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
     return lines
 
 
+def plot_differences(gpu_dir: Path, cpu_dir: Path, path: Path) -> None:
+    """Per scene, the 192 x 192 row whose GPU and CPU images differ most (lowest PSNR): the GPU's image, the
+    CPU's, and log10 of their largest per-channel difference in linear radiance."""
+    gpu, gpu_images = load(gpu_dir)
+    cpu, cpu_images = load(cpu_dir)
+    worst: dict[str, tuple[float, str, dict]] = {}
+    for name, spec in e10.SCENES:
+        scene = scenes.load(spec)
+        for r in gpu["rows"]:
+            k = r["key"]
+            if r["scene"] == name and f"{k}|rgb" in gpu_images and f"{k}|rgb" in cpu_images:
+                v, _ = agreement(gpu_images[f"{k}|rgb"], gpu_images[f"{k}|mask"], cpu_images[f"{k}|rgb"],
+                                 cpu_images[f"{k}|mask"], scene)
+                if v is not None and (name not in worst or v < worst[name][0]):
+                    worst[name] = (v, k, r)
+    plt = plots.pyplot()
+    fig, axes = plt.subplots(len(worst), 3, figsize=(9, 3.0 * len(worst)), squeeze=False)
+    for row, (name, (v, k, r)) in zip(axes, worst.items(), strict=True):
+        scene = scenes.load(dict(e10.SCENES)[name])
+        a = gpu_images[f"{k}|rgb"].astype(np.float32)
+        b = cpu_images[f"{k}|rgb"].astype(np.float32)
+        row[0].imshow(np.clip(metrics.display(scene, a), 0, 1))
+        row[0].set_title(f"{gpu['gl'].split('/')[0].strip()}", fontsize=9)
+        row[1].imshow(np.clip(metrics.display(scene, b), 0, 1))
+        row[1].set_title(f"{cpu['gl'].split('(')[0].strip()}: {v:.2f} dB apart", fontsize=9)
+        im = row[2].imshow(np.log10(np.abs(a - b).max(axis=-1) + 1e-7), vmin=-6, vmax=0, cmap="magma")
+        row[2].set_title("log10 |difference|, linear radiance", fontsize=9)
+        fig.colorbar(im, ax=row[2], fraction=0.046)
+        setting = " " + "x".join(str(x) for x in r["setting"]) if r["setting"] else ""
+        row[0].set_ylabel(f"{name}\n{r['mode']}{setting}", fontsize=9)
+        for ax in row:
+            ax.set_xticks([])
+            ax.set_yticks([])
+    plots.save(fig, path)
+
+
 def e10_psnr(summary: str) -> dict[tuple[str, str, tuple[int, int, int] | None], float]:
     """{(scene, mode, (resolution, cascades, cones) or None): unbiased PSNR dB} from E10's row table in the
     paper summary (reports/paper/summary.md, written by experiments/paper/e10_voxel_cone_tracing.py)."""
@@ -245,6 +282,7 @@ def main(argv: list[str] | None = None) -> int:
     c.add_argument("gpu", type=Path)
     c.add_argument("cpu", type=Path)
     c.add_argument("--markdown", type=Path)
+    c.add_argument("--figure", type=Path, help="per scene, the row whose two images differ most")
     lad = sub.add_parser("ladder", help="E10's PSNR against the GPU's frame ms, one panel per scene")
     lad.add_argument("gpu", type=Path)
     lad.add_argument("--summary", type=Path, default=ROOT / "reports" / "paper" / "summary.md")
@@ -264,6 +302,8 @@ def main(argv: list[str] | None = None) -> int:
     print("\n".join(lines))
     if args.markdown:
         args.markdown.write_text("\n".join(lines) + "\n")
+    if args.figure:
+        plot_differences(args.gpu, args.cpu, args.figure)
     return 0
 
 

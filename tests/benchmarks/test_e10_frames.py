@@ -166,3 +166,18 @@ def test_every_row_timed_has_a_psnr_in_the_committed_e10_table():
     for name, _, ov, _ in e10_frames.rows([]):
         setting = e10_frames.e10.setting(argparse.Namespace(overrides=ov))
         assert (name, expected_mode(ov), setting) in psnr
+
+
+def test_the_figures_are_drawn_from_two_runs(tmp_path):
+    vct = {"realtime.occlusion": "vct", "realtime.vct.resolution": 32, "realtime.vct.cascades": 1,
+           "realtime.vct.diffuse_cones": 6}
+    keys = [e10_frames.row_key("bowl-diffuse", ov, (192, 192)) for ov in ({}, vct)]
+    img = smooth_image(192)
+    mask = np.ones((192, 192), bool)
+    images = {**{f"{k}|rgb": img for k in keys}, **{f"{k}|mask": mask for k in keys}}
+    rows = [({}, {"total": 0.5, "draw": 0.25}), (vct, {"total": 10.0, "draw": 4.25, "voxelize": 5.0})]
+    write_run(tmp_path / "gpu", "NVIDIA test", rows, images)
+    write_run(tmp_path / "cpu", "llvmpipe test", rows, images)
+    e10_frames.plot_differences(tmp_path / "gpu", tmp_path / "cpu", tmp_path / "diff.png")
+    e10_frames.plot_ladder(tmp_path / "gpu", ROOT / "reports" / "paper" / "summary.md", tmp_path / "ladder.png")
+    assert (tmp_path / "diff.png").stat().st_size > 10_000 and (tmp_path / "ladder.png").stat().st_size > 10_000
