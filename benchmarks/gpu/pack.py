@@ -98,7 +98,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--cache-from", type=Path, help="a reference cache folder whose entries to carry")
     ap.add_argument("--no-debs", action="store_true", help="skip the GL loader packages (apt-get download)")
     ap.add_argument("--realtime-only", action="store_true",
-                    help="only what the real-time renderer needs (no Mitsuba, Dr.Jit or Dask): one part")
+                    help="only what the real-time renderer needs (no Mitsuba, Dr.Jit or Dask): 18 MiB, one part at "
+                         "the default --part-mib")
     args = ap.parse_args(argv)
 
     out: Path = args.out

@@ -75,9 +75,31 @@ def test_agreement_of_an_image_with_itself_and_with_its_mirror():
     # negative control: an image mirrored left to right, as one renderer off by a flip would give
     flipped, _ = e10_frames.agreement(img[:, ::-1], mask, img, mask, scene)
     assert flipped < e10_frames.AGREE_DB
-    other = mask.copy()
-    other[:3, :5] = False
-    assert e10_frames.agreement(img, mask, img, other, scene)[1] == 15
+
+
+def test_agreement_compares_displayed_pixels_that_both_cover_inside_the_eroded_mask():
+    scene = scenes.load("builtin:bowl-diffuse")
+    img = smooth_image()
+    n = img.shape[0]
+    gpu_mask = np.zeros((n, n), bool)
+    gpu_mask[4:-4, 4:-4] = True
+    cpu_mask = gpu_mask.copy()
+    cpu_mask[10, 4:9] = False  # five pixels the CPU image does not cover
+    other = img.copy()
+    other[10, 4:9] = 50.0  # where only one covers: not compared, counted
+    other[4, 20] = 50.0  # on the common mask's edge, which the one-pixel erosion takes away
+    assert e10_frames.agreement(other, gpu_mask, img, cpu_mask, scene) == (metrics.PSNR_CAP, 5)
+    # inside, twice the radiance: the PSNR of the displayed images, which differs from the linear values' PSNR
+    other[20:30, 20:30] *= 2.0
+    inside = np.zeros((n, n), bool)
+    inside[5:-5, 5:-5] = True
+    inside[10, 4:10] = False  # the five uncovered pixels and, by the cross's erosion, their row neighbour
+    inside[9, 4:9] = False  # and the pixels above and below them
+    inside[11, 4:9] = False
+    shown = metrics.psnr(metrics.display(scene, other), metrics.display(scene, img), inside)
+    got, _ = e10_frames.agreement(other, gpu_mask, img, cpu_mask, scene)
+    assert got == pytest.approx(shown, abs=1e-9)
+    assert abs(got - metrics.psnr(other, img, inside)) > 1.0
 
 
 def write_run(folder: Path, gl: str, rows: list[tuple[dict, dict]], images: dict[str, np.ndarray]) -> None:
@@ -145,39 +167,60 @@ def test_e10_psnr_reads_the_row_table_of_the_e10_section_only():
         # the energy table that follows has ten columns: not a row of the row table
         "| cornell-open | 128x1x6 | 0\\.5952 | 0\\.1211 | 0\\.1675 | 0\\.1305 | 0\\.18 | 0\\.22 | 0\\.947 | 0\\.93 |",
         "", "## E11 next", "", "| bowl-diffuse | occlusion | 64 | 1 | 6 | 50 | 1 | - | - | - | - | - |"])
-    assert e10_frames.e10_psnr(summary) == {("cornell-open", "direct (paper)", None): 13.36,
-                                            ("cornell-open", "occlusion", (32, 1, 6)): 13.88}
-
-
-def expected_mode(ov: dict) -> str:
-    """E10's name for the mode of a row with these overrides (its MODES, from its module docstring)."""
-    if ov.get("realtime.diffuse") == "prt":
-        return "PRT + bounce"
-    if ov.get("realtime.occlusion") == "shadow_maps":
-        return "light array + shadow maps"
-    if ov.get("realtime.interreflection") == "vct":
-        return "occlusion + interreflection"
-    return "occlusion" if ov.get("realtime.occlusion") == "vct" else "direct (paper)"
+    assert e10_frames.e10_psnr(summary) == {("cornell-open", "direct (paper)", None): (13.36, False),
+                                            ("cornell-open", "occlusion", (32, 1, 6)): (13.88, True)}
 
 
 def test_every_row_timed_has_a_psnr_in_the_committed_e10_table():
     psnr = e10_frames.e10_psnr((ROOT / "reports" / "paper" / "summary.md").read_text())
     assert len(psnr) == 50
     for name, _, ov, _ in e10_frames.rows([]):
+        # E10 names a row's mode from the techniques that ran, which are the overrides' here
+        chosen = argparse.Namespace(techniques={k.removeprefix("realtime."): v for k, v in ov.items()})
         setting = e10_frames.e10.setting(argparse.Namespace(overrides=ov))
-        assert (name, expected_mode(ov), setting) in psnr
+        assert (name, e10_frames.e10.mode(chosen), setting) in psnr
 
 
-def test_the_figures_are_drawn_from_two_runs(tmp_path):
+def test_the_figures_are_drawn_from_two_runs_and_pick_the_row_that_differs_most(tmp_path):
     vct = {"realtime.occlusion": "vct", "realtime.vct.resolution": 32, "realtime.vct.cascades": 1,
            "realtime.vct.diffuse_cones": 6}
     keys = [e10_frames.row_key("bowl-diffuse", ov, (192, 192)) for ov in ({}, vct)]
     img = smooth_image(192)
     mask = np.ones((192, 192), bool)
-    images = {**{f"{k}|rgb": img for k in keys}, **{f"{k}|mask": mask for k in keys}}
+    masks = {f"{k}|mask": mask for k in keys}
     rows = [({}, {"total": 0.5, "draw": 0.25}), (vct, {"total": 10.0, "draw": 4.25, "voxelize": 5.0})]
-    write_run(tmp_path / "gpu", "NVIDIA test", rows, images)
-    write_run(tmp_path / "cpu", "llvmpipe test", rows, images)
+    write_run(tmp_path / "gpu", "NVIDIA test", rows, {f"{keys[0]}|rgb": img, f"{keys[1]}|rgb": img[:, ::-1], **masks})
+    write_run(tmp_path / "cpu", "llvmpipe test", rows, {f"{keys[0]}|rgb": img, f"{keys[1]}|rgb": img, **masks})
+    gpu, gpu_images = e10_frames.load(tmp_path / "gpu")
+    _, cpu_images = e10_frames.load(tmp_path / "cpu")
+    worst = e10_frames.worst_rows(gpu, gpu_images, cpu_images)
+    assert list(worst) == ["bowl-diffuse"] and worst["bowl-diffuse"][1]["key"] == keys[1]
     e10_frames.plot_differences(tmp_path / "gpu", tmp_path / "cpu", tmp_path / "diff.png")
     e10_frames.plot_ladder(tmp_path / "gpu", ROOT / "reports" / "paper" / "summary.md", tmp_path / "ladder.png")
     assert (tmp_path / "diff.png").stat().st_size > 10_000 and (tmp_path / "ladder.png").stat().st_size > 10_000
+
+
+def test_compare_writes_the_table_it_prints(tmp_path, capsys):
+    k = e10_frames.row_key("bowl-diffuse", {}, (192, 192))
+    for run in ("gpu", "cpu"):
+        write_run(tmp_path / run, run, [({}, {"total": 0.5, "draw": 0.25})], {})
+    assert e10_frames.main(["compare", str(tmp_path / "gpu"), str(tmp_path / "cpu"),
+                            "--markdown", str(tmp_path / "t.md")]) == 0
+    printed = capsys.readouterr().out
+    assert (tmp_path / "t.md").read_text() == printed and k.split()[0] in printed
+
+
+@pytest.mark.parametrize("args, names", [
+    (["measure", "--out", "{tmp}/run", "--scene", "sponza"], "sponza"),
+    (["measure", "--out", "{tmp}/run", "--frames", "0"], "--frames 0"),
+    (["compare", "{tmp}/nothing", "{tmp}/nothing"], "nothing: no frames.json"),
+    (["ladder", "{tmp}/gpu", "--summary", "{tmp}/summary.md", "--out", "{tmp}/l.png"], "no E10 section"),
+    (["compare", "{tmp}/gpu", "{tmp}/gpu", "--figure", "{tmp}/f.png"], "no row has images"),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, args, names):
+    write_run(tmp_path / "gpu", "NVIDIA test", [({}, {"total": 0.5, "draw": 0.25})], {})
+    (tmp_path / "summary.md").write_text("# suite\n\n## E9 other\n")
+    assert e10_frames.main([a.format(tmp=tmp_path) for a in args]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("e10_frames: ") and names in err
+    assert not (tmp_path / "run").exists()  # nothing rendered, nothing half written

@@ -109,7 +109,7 @@ def test_device_usage(tmp_path, args):
     assert done.returncode == 2 and "usage" in done.stderr
 
 
-def test_the_real_time_renderer_imports_nothing_the_realtime_only_payload_leaves_out():
+def test_e10_frames_imports_nothing_the_realtime_only_payload_leaves_out_when_loaded():
     # `pack.py --realtime-only` carries REALTIME_NEEDED alone; e10_frames.py, which runs on it, must import
     # none of the rest (a module-level `import mitsuba` anywhere on its path would fail on the GPU machine)
     left_out = sorted({pack.canonical(n) for n in pack.NEEDED} - {pack.canonical(n) for n in pack.REALTIME_NEEDED})
