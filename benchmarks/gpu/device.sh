@@ -6,6 +6,7 @@
 #   device.sh install        check the payload's SHA-256, unpack the GL loaders and install the wheels
 #   device.sh run ARGS...    `iblcheck paper ARGS...` with NVIDIA's EGL, then the rows and the report to $OUT
 #   device.sh script PY ARGS...  `python PY ARGS...` in the same environment (e.g. benchmarks/gpu/e10_frames.py)
+#   device.sh script -m MODULE ARGS...  `python -m MODULE ARGS...` there (e.g. -m pytest -m "gl and not mitsuba" tests)
 #
 # Nothing here downloads anything: the machine reaches no registry. Where it keeps things between calls:
 # $IBLCHECK_GPU_HOME (default /opt/iblcheck). Tested on a CPU machine too, with Python 3.12 and Mesa's EGL
@@ -68,13 +69,22 @@ case "$step" in
     if [ -d "$out/figures" ]; then tar -czf "$OUT/figures.tar.gz" -C "$out" figures; fi
     ;;
   script)
-    py=${1:?usage: device.sh script PY ARGS...}
+    py=${1:-}
+    [ -n "$py" ] || die "usage: device.sh script PY ARGS... | script -m MODULE ARGS..."
     shift
-    [ -f "$py" ] || die "$py: no such script in this checkout"
-    installed_env
-    "$PYTHON" "$py" "$@"
+    if [ "$py" = -m ]; then
+      module=${1:-}
+      [ -n "$module" ] || die "usage: device.sh script -m MODULE ARGS... (e.g. -m pytest -m gl tests)"
+      shift
+      installed_env
+      "$PYTHON" -m "$module" "$@"
+    else
+      [ -f "$py" ] || die "$py: no such script in this checkout"
+      installed_env
+      "$PYTHON" "$py" "$@"
+    fi
     ;;
   *)
-    die "usage: device.sh receive NN | install | run PAPER-ARGS... | script PY ARGS..."
+    die "usage: device.sh receive NN | install | run PAPER-ARGS... | script PY ARGS... | script -m MODULE ARGS..."
     ;;
 esac

@@ -224,3 +224,25 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, capsys, args, names):
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and err.startswith("e10_frames: ") and names in err
     assert not (tmp_path / "run").exists()  # nothing rendered, nothing half written
+
+
+@pytest.mark.gl
+def test_measure_writes_each_row_with_its_timings_and_image(tmp_path, monkeypatch):
+    # the direct row and one VCT row of one scene at 32 x 24 (E10's size, shrunk here), one timed frame
+    vct = {"realtime.occlusion": "vct", "realtime.vct.resolution": 16, "realtime.vct.cascades": 1,
+           "realtime.vct.diffuse_cones": 4}
+    monkeypatch.setattr(e10_frames.e10, "configs", lambda settings, spec: [{}, vct])
+    monkeypatch.setattr(e10_frames, "E10_SIZE", (32, 24))
+    e10_frames.measure(tmp_path / "run", 1, 0, [(40, 30)], ["torus-phong"])
+    doc, images = e10_frames.load(tmp_path / "run")
+    assert [r["key"] for r in doc["rows"]] == [
+        e10_frames.row_key("torus-phong", ov, size) for size in ((32, 24), (40, 30)) for ov in ({}, vct)]
+    assert [r["mode"] for r in doc["rows"]] == ["direct (paper)", "occlusion"] * 2
+    assert [r["size"] for r in doc["rows"]] == [[32, 24], [32, 24], [40, 30], [40, 30]]  # width x height
+    assert doc["rows"][1]["setting"] == [16, 1, 4] and doc["rows"][0]["setting"] is None
+    assert all(r["timings"]["total"] > 0 and r["nonfinite"] == 0 for r in doc["rows"])
+    # images at E10's size only, as the render's (rows, columns) and with the object covered
+    assert sorted(images) == sorted(f"{r['key']}|{part}" for r in doc["rows"][:2] for part in ("rgb", "mask"))
+    first = doc["rows"][0]["key"]
+    assert images[f"{first}|rgb"].shape == (24, 32, 3) and images[f"{first}|rgb"].dtype == np.float16
+    assert 0 < images[f"{first}|mask"].sum() < 24 * 32

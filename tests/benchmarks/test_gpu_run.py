@@ -143,3 +143,10 @@ def test_device_script_step_runs_a_script_with_the_installed_wheels(tmp_path):
     missing = subprocess.run(["bash", str(DEVICE), "script", "no/such.py"], cwd=ROOT, env=env,
                              capture_output=True, text=True)
     assert missing.returncode == 2 and "no/such.py" in missing.stderr
+    # a module, as pytest runs there: the installed wheel is found by `python -m` as well
+    module = subprocess.run(["bash", str(DEVICE), "script", "-m", "tinygpu"], cwd=ROOT, env=env,
+                            capture_output=True, text=True)
+    assert module.returncode == 0, module.stderr
+    no_module = subprocess.run(["bash", str(DEVICE), "script", "-m"], cwd=ROOT, env=env, capture_output=True,
+                               text=True)
+    assert no_module.returncode == 2 and "usage" in no_module.stderr
