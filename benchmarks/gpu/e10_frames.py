@@ -7,13 +7,14 @@
 
 `measure` renders every real-time row of E10 (experiments/paper/e10_voxel_cone_tracing.py, its FULL
 settings: the paper's direct light, VCT's occlusion with and without interreflection over its resolution x
-cascades x cones grid, PRT with a bounce, the light array with shadow maps) on cornell-open, bowl-diffuse
-and torus-phong, at E10's image size (192 x 192) and at each `--size`. Per row it keeps the frame's timings (medians
-over `--frames` frames after `--warmup`, realtime/engine/frame.py) in DIR/frames.json, rewritten after every
-row so that a run stopped at its time limit keeps what it finished, and the 192 x 192 images in
-DIR/images.npz (float16 linear RGB, clamped at float16's largest value, and the coverage mask; a row records
-how many of its values were not finite or clamped). Nothing here needs Mitsuba: the accuracy of each row is
-E10's, measured against the path tracer on llvmpipe (reports/paper/summary.md).
+cascades x cones grid, PRT with a bounce, the light array with shadow maps) on cornell-open, bowl-diffuse and
+torus-phong, at E10's image size (192 x 192) and at each `--size`. Per row it keeps the frame's timings
+(medians over `--frames` frames after `--warmup`, realtime/engine/frame.py) in DIR/frames.json and the
+192 x 192 images in DIR/images.npz, both rewritten after every row (each file replaced whole) so that a run
+stopped at its time limit keeps what it finished. The images are float16 linear RGB, clamped at float16's
+largest value, with the coverage mask; a row records how many of its values were not finite or clamped.
+Nothing here needs Mitsuba: the accuracy of each row is E10's, measured against the path tracer on llvmpipe
+(reports/paper/summary.md).
 
 `compare` sets a GPU run beside an llvmpipe run of the same rows: each row's frame time on both, their
 ratio, and the GPU image against llvmpipe's: PSNR of the displayed images over the pixels both cover, eroded
@@ -54,6 +55,7 @@ from experiments.publish.images import to_float16
 from realtime.engine.context import is_software, renderer_name
 from realtime.engine.frame import TechniqueNotRunWarning
 from realtime.engine.technique import UnsimulatedEffectWarning
+from scenes.storage.files import atomic_output, write_bytes
 
 ROOT = Path(__file__).resolve().parents[2]
 #: PSNR of the GPU's displayed image against llvmpipe's under which a row is flagged as disagreeing: float
@@ -131,8 +133,9 @@ def measure(out: Path, frames: int, warmup: int, sizes: list[tuple[int, int]], o
             # a non-finite value stays visible in the row's count and as float16's NaN or +-65504 in the image
             images[f"{key}|rgb"], doc["rows"][-1]["clamped"] = to_float16(r.rgb)
             images[f"{key}|mask"] = r.mask
-            np.savez_compressed(out / "images.npz", **images)
-        (out / "frames.json").write_text(json.dumps(doc, indent=1) + "\n")
+            with atomic_output(out / "images.npz") as tmp, tmp.open("wb") as f:
+                np.savez_compressed(f, **images)
+        write_bytes(out / "frames.json", (json.dumps(doc, indent=1) + "\n").encode())
         print(f"[{i + 1}/{len(todo)}] {time.perf_counter() - t_start:7.1f} s  {key}: "
               f"{r.timings['total']:.3f} ms", flush=True)
 
