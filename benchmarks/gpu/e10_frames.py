@@ -11,10 +11,10 @@ cascades x cones grid, PRT with a bounce, the light array with shadow maps) on c
 torus-phong, at E10's image size (192 x 192) and at each `--size`. Per row it keeps the frame's timings
 (medians over `--frames` frames after `--warmup`, realtime/engine/frame.py) in DIR/frames.json and the
 192 x 192 images in DIR/images.npz, both rewritten after every row (each file replaced whole) so that a run
-stopped at its time limit keeps what it finished. The images are float16 linear RGB, clamped at float16's
-largest value, with the coverage mask; a row records how many of its values were not finite or clamped.
-Nothing here needs Mitsuba: the accuracy of each row is E10's, measured against the path tracer on llvmpipe
-(reports/paper/summary.md).
+stopped at its time limit keeps what it finished; frames.json also holds the context's GL_MAX_* limits. The
+images are float16 linear RGB, clamped at float16's largest value, with the coverage mask; a row records how
+many of its values were not finite or clamped. Nothing here needs Mitsuba: the accuracy of each row is E10's,
+measured against the path tracer on llvmpipe (reports/paper/summary.md).
 
 `compare` sets a GPU run beside an llvmpipe run of the same rows: each row's frame time on both, their
 ratio, and the GPU image against llvmpipe's: PSNR of the displayed images over the pixels both cover, eroded
@@ -52,7 +52,7 @@ from experiments.paper import context
 from experiments.paper import e10_voxel_cone_tracing as e10
 from experiments.publish import plots
 from experiments.publish.images import to_float16
-from realtime.engine.context import is_software, renderer_name
+from realtime.engine.context import get_context, is_software, renderer_name
 from realtime.engine.frame import TechniqueNotRunWarning
 from realtime.engine.technique import UnsimulatedEffectWarning
 from scenes.storage.files import atomic_output, write_bytes
@@ -112,8 +112,9 @@ def measure(out: Path, frames: int, warmup: int, sizes: list[tuple[int, int]], o
     # E10's rows are known to leave effects out (the direct row has no occlusion): one line each is noise here
     warnings.simplefilter("ignore", UnsimulatedEffectWarning)
     warnings.simplefilter("ignore", TechniqueNotRunWarning)
+    info = get_context().info  # the context's limits, e.g. the storage block size VCT's 128^3 scratch exceeds
     doc: dict = {"gl": renderer_name(), "software_gl": is_software(), "frames": frames, "warmup_frames": warmup,
-                 "rows": []}
+                 "gl_limits": {k: info[k] for k in sorted(info) if k.startswith("GL_MAX_")}, "rows": []}
     images: dict[str, np.ndarray] = {}
     t_start = time.perf_counter()
     print(f"OpenGL renderer: {doc['gl']}; {len(todo)} rows", flush=True)

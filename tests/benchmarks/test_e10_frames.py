@@ -241,6 +241,7 @@ def test_measure_writes_each_row_with_its_timings_and_image(tmp_path, monkeypatc
     assert [r["size"] for r in doc["rows"]] == [[32, 24], [32, 24], [40, 30], [40, 30]]  # width x height
     assert doc["rows"][1]["setting"] == [16, 1, 4] and doc["rows"][0]["setting"] is None
     assert all(r["timings"]["total"] > 0 and r["nonfinite"] == 0 for r in doc["rows"])
+    assert doc["gl_limits"]["GL_MAX_SHADER_STORAGE_BLOCK_SIZE"] >= 2**27  # GL 4.3's minimum
     # images at E10's size only, as the render's (rows, columns) and with the object covered
     assert sorted(images) == sorted(f"{r['key']}|{part}" for r in doc["rows"][:2] for part in ("rgb", "mask"))
     first = doc["rows"][0]["key"]
