@@ -40,6 +40,7 @@ import json
 import sys
 import time
 import warnings
+from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -161,13 +162,42 @@ def agreement(gpu_rgb: np.ndarray, gpu_mask: np.ndarray, cpu_rgb: np.ndarray, cp
     return metrics.psnr(shown_gpu, shown_cpu, both), int((gpu_mask ^ cpu_mask).sum())
 
 
-def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
+@dataclass
+class RunPair:
+    """A GPU run and a CPU run of the same rows (each `load`ed), and their images' `agreement` per row key
+    where both runs kept the row's image, computed once."""
+
+    gpu: dict
+    gpu_images: dict[str, np.ndarray]
+    cpu: dict
+    cpu_images: dict[str, np.ndarray]
+    agreed: dict[str, tuple[float | None, int]] = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.agreed = {}
+        for name, spec in e10.SCENES:
+            keys = [r["key"] for r in self.gpu["rows"] if r["scene"] == name
+                    and f"{r['key']}|rgb" in self.gpu_images and f"{r['key']}|rgb" in self.cpu_images]
+            scene = scenes.load(spec) if keys else None
+            for k in keys:
+                self.agreed[k] = agreement(self.gpu_images[f"{k}|rgb"], self.gpu_images[f"{k}|mask"],
+                                           self.cpu_images[f"{k}|rgb"], self.cpu_images[f"{k}|mask"], scene)
+
+
+def load_pair(gpu_dir: Path, cpu_dir: Path) -> RunPair:
+    return RunPair(*load(gpu_dir), *load(cpu_dir))
+
+
+def setting_label(setting: list[int] | None) -> str:
+    """A row's VCT setting as resolution x cascades x cones, '-' for a row without one."""
+    return "x".join(str(v) for v in setting) if setting else "-"
+
+
+def compare(pair: RunPair) -> list[str]:
     """Markdown lines: one table row per row of the GPU run, beside the CPU run's where it has it, and a closing
     line on the images (how many compared, the lowest PSNR, those under AGREE_DB)."""
-    gpu, gpu_images = load(gpu_dir)
-    cpu, cpu_images = load(cpu_dir)
+    gpu, cpu = pair.gpu, pair.cpu
     cpu_rows = {r["key"]: r for r in cpu["rows"]}
-    loaded: dict[str, object] = {}
     lines = [f"GPU: {gpu['gl']} ({gpu['frames']} timed frames after {gpu['warmup_frames']}); "
              f"CPU: {cpu['gl']} ({cpu['frames']} after {cpu['warmup_frames']}). Milliseconds are medians; "
              "the CPU's are llvmpipe's, that is CPU time. `trace` is the shading pass's ms less the direct row's.",
@@ -177,7 +207,6 @@ def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
              "|---|---|---|---|---|---|---|---|---|---|---|"]
     direct = {(r["scene"], tuple(r["size"])): r["timings"]["draw"] for r in gpu["rows"]
               if r["mode"] == "direct (paper)"}
-    agreed: list[tuple[float, str]] = []
 
     def cell(v: float | None, fmt: str = "{:.2f}") -> str:
         return "-" if v is None else fmt.format(v)
@@ -185,23 +214,15 @@ def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
     for r in gpu["rows"]:
         c = cpu_rows.get(r["key"])
         t = r["timings"]
-        setting = "x".join(str(v) for v in r["setting"]) if r["setting"] else "-"
         base = direct.get((r["scene"], tuple(r["size"])))
         trace = t["draw"] - base if r["setting"] and base is not None else None
-        psnr, differ = None, None
-        if c and f"{r['key']}|rgb" in gpu_images and f"{r['key']}|rgb" in cpu_images:
-            if r["scene"] not in loaded:
-                loaded[r["scene"]] = scenes.load(dict(e10.SCENES)[r["scene"]])
-            psnr, differ = agreement(gpu_images[f"{r['key']}|rgb"], gpu_images[f"{r['key']}|mask"],
-                                     cpu_images[f"{r['key']}|rgb"], cpu_images[f"{r['key']}|mask"],
-                                     loaded[r["scene"]])
-            if psnr is not None:
-                agreed.append((psnr, r["key"]))
+        psnr, differ = pair.agreed.get(r["key"], (None, None)) if c else (None, None)
         cpu_ms = c["timings"]["total"] if c else None
         lines.append(
-            f"| {r['scene']} | {r['size'][0]}x{r['size'][1]} | {r['mode']} | {setting} | {t['total']:.2f} "
-            f"| {cell(cpu_ms)} | {cell(cpu_ms / t['total'] if cpu_ms else None, '{:.0f}')} "
+            f"| {r['scene']} | {r['size'][0]}x{r['size'][1]} | {r['mode']} | {setting_label(r['setting'])} "
+            f"| {t['total']:.2f} | {cell(cpu_ms)} | {cell(cpu_ms / t['total'] if cpu_ms else None, '{:.0f}')} "
             f"| {cell(t.get('voxelize'))} | {cell(trace)} | {cell(psnr)} | {cell(differ, '{}')} |")
+    agreed = [(v, k) for k, (v, _) in pair.agreed.items() if v is not None and k in cpu_rows]
     if agreed:
         low, key = min(agreed)
         under = [k for v, k in agreed if v < AGREE_DB]
@@ -211,46 +232,39 @@ def compare(gpu_dir: Path, cpu_dir: Path) -> list[str]:
     return lines
 
 
-def worst_rows(gpu: dict, gpu_images: dict, cpu_images: dict) -> dict[str, tuple[float, dict]]:
+def worst_rows(pair: RunPair) -> dict[str, tuple[float, dict]]:
     """{scene: (PSNR, row)} of each scene's row whose GPU and CPU images differ most (the lowest PSNR)."""
     worst: dict[str, tuple[float, dict]] = {}
-    for name, spec in e10.SCENES:
-        scene = scenes.load(spec)
-        for r in gpu["rows"]:
-            k = r["key"]
-            if r["scene"] == name and f"{k}|rgb" in gpu_images and f"{k}|rgb" in cpu_images:
-                v, _ = agreement(gpu_images[f"{k}|rgb"], gpu_images[f"{k}|mask"], cpu_images[f"{k}|rgb"],
-                                 cpu_images[f"{k}|mask"], scene)
-                if v is not None and (name not in worst or v < worst[name][0]):
-                    worst[name] = (v, r)
+    for r in pair.gpu["rows"]:
+        v = pair.agreed.get(r["key"], (None, 0))[0]
+        if v is not None and (r["scene"] not in worst or v < worst[r["scene"]][0]):
+            worst[r["scene"]] = (v, r)
     return worst
 
 
-def plot_differences(gpu_dir: Path, cpu_dir: Path, path: Path) -> None:
+def plot_differences(pair: RunPair, path: Path) -> None:
     """Per scene, the 192 x 192 row whose GPU and CPU images differ most (`worst_rows`): the GPU's image, the
     CPU's, and log10 of their largest per-channel difference in linear radiance where either covers."""
-    gpu, gpu_images = load(gpu_dir)
-    cpu, cpu_images = load(cpu_dir)
-    worst = worst_rows(gpu, gpu_images, cpu_images)
+    worst = worst_rows(pair)
     if not worst:
-        raise FramesInputError(f"{gpu_dir}, {cpu_dir}: no row has images in both (images.npz) to compare")
+        raise FramesInputError("no row has images in both runs (images.npz) to compare")
     plt = plots.pyplot()
     fig, axes = plt.subplots(len(worst), 3, figsize=(9, 3.0 * len(worst)), squeeze=False)
     for row, (name, (v, r)) in zip(axes, worst.items(), strict=True):
         scene = scenes.load(dict(e10.SCENES)[name])
         k = r["key"]
-        a = gpu_images[f"{k}|rgb"].astype(np.float32)
-        b = cpu_images[f"{k}|rgb"].astype(np.float32)
-        either = gpu_images[f"{k}|mask"] | cpu_images[f"{k}|mask"]
+        a = pair.gpu_images[f"{k}|rgb"].astype(np.float32)
+        b = pair.cpu_images[f"{k}|rgb"].astype(np.float32)
+        either = pair.gpu_images[f"{k}|mask"] | pair.cpu_images[f"{k}|mask"]
         row[0].imshow(np.clip(metrics.display(scene, a), 0, 1))
-        row[0].set_title(f"{gpu['gl'].split('/')[0].strip()}", fontsize=9)
+        row[0].set_title(f"{pair.gpu['gl'].split('/')[0].strip()}", fontsize=9)
         row[1].imshow(np.clip(metrics.display(scene, b), 0, 1))
-        row[1].set_title(f"{cpu['gl'].split('(')[0].strip()}: {v:.2f} dB apart", fontsize=9)
+        row[1].set_title(f"{pair.cpu['gl'].split('(')[0].strip()}: {v:.2f} dB apart", fontsize=9)
         diff = np.where(either, np.log10(np.abs(a - b).max(axis=-1) + 1e-7), np.nan)
         im = row[2].imshow(diff, vmin=-6, vmax=0, cmap="magma")
         row[2].set_title("log10 |difference|, linear radiance", fontsize=9)
         fig.colorbar(im, ax=row[2], fraction=0.046)
-        setting = " " + "x".join(str(x) for x in r["setting"]) if r["setting"] else ""
+        setting = f" {setting_label(r['setting'])}" if r["setting"] else ""
         row[0].set_ylabel(f"{name}\n{r['mode']}{setting}", fontsize=9)
         for ax in row:
             ax.set_xticks([])
@@ -336,12 +350,13 @@ def main(argv: list[str] | None = None) -> int:
         elif args.command == "ladder":
             plot_ladder(args.gpu, args.summary, args.out)
         else:
-            lines = compare(args.gpu, args.cpu)
+            pair = load_pair(args.gpu, args.cpu)
+            lines = compare(pair)
             print("\n".join(lines))
             if args.markdown:
                 args.markdown.write_text("\n".join(lines) + "\n")
             if args.figure:
-                plot_differences(args.gpu, args.cpu, args.figure)
+                plot_differences(pair, args.figure)
     except FramesInputError as e:
         print(f"e10_frames: {e}", file=sys.stderr)
         return 2

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ from experiments.measure import metrics
 ROOT = Path(__file__).resolve().parents[2]
 _spec = importlib.util.spec_from_file_location("e10_frames", ROOT / "benchmarks" / "gpu" / "e10_frames.py")
 e10_frames = importlib.util.module_from_spec(_spec)
+sys.modules[_spec.name] = e10_frames  # its dataclass looks its module up there
 _spec.loader.exec_module(e10_frames)
 
 
@@ -130,7 +132,7 @@ def test_compare_sets_each_row_beside_the_cpu_run(tmp_path):
     # the CPU run has the direct row only
     write_run(tmp_path / "cpu", "llvmpipe test", [({}, {"total": 20.0, "draw": 10.0})],
               {f"{k_direct}|rgb": img, f"{k_direct}|mask": mask})
-    lines = e10_frames.compare(tmp_path / "gpu", tmp_path / "cpu")
+    lines = e10_frames.compare(e10_frames.load_pair(tmp_path / "gpu", tmp_path / "cpu"))
     table = [line for line in lines if line.startswith("| bowl-diffuse")]
     assert len(table) == 2
     direct_cells = [c.strip() for c in table[0].strip("|").split("|")]
@@ -150,7 +152,7 @@ def test_compare_names_the_rows_whose_images_disagree(tmp_path):
               {f"{k}|rgb": img[::-1], f"{k}|mask": mask})  # upside down
     write_run(tmp_path / "cpu", "llvmpipe test", [({}, {"total": 20.0, "draw": 10.0})],
               {f"{k}|rgb": img, f"{k}|mask": mask})
-    last = e10_frames.compare(tmp_path / "gpu", tmp_path / "cpu")[-1]
+    last = e10_frames.compare(e10_frames.load_pair(tmp_path / "gpu", tmp_path / "cpu"))[-1]
     assert "1 under 40 dB: bowl-diffuse 192x192." in last
 
 
@@ -191,11 +193,10 @@ def test_the_figures_are_drawn_from_two_runs_and_pick_the_row_that_differs_most(
     rows = [({}, {"total": 0.5, "draw": 0.25}), (vct, {"total": 10.0, "draw": 4.25, "voxelize": 5.0})]
     write_run(tmp_path / "gpu", "NVIDIA test", rows, {f"{keys[0]}|rgb": img, f"{keys[1]}|rgb": img[:, ::-1], **masks})
     write_run(tmp_path / "cpu", "llvmpipe test", rows, {f"{keys[0]}|rgb": img, f"{keys[1]}|rgb": img, **masks})
-    gpu, gpu_images = e10_frames.load(tmp_path / "gpu")
-    _, cpu_images = e10_frames.load(tmp_path / "cpu")
-    worst = e10_frames.worst_rows(gpu, gpu_images, cpu_images)
+    pair = e10_frames.load_pair(tmp_path / "gpu", tmp_path / "cpu")
+    worst = e10_frames.worst_rows(pair)
     assert list(worst) == ["bowl-diffuse"] and worst["bowl-diffuse"][1]["key"] == keys[1]
-    e10_frames.plot_differences(tmp_path / "gpu", tmp_path / "cpu", tmp_path / "diff.png")
+    e10_frames.plot_differences(pair, tmp_path / "diff.png")
     e10_frames.plot_ladder(tmp_path / "gpu", ROOT / "reports" / "paper" / "summary.md", tmp_path / "ladder.png")
     assert (tmp_path / "diff.png").stat().st_size > 10_000 and (tmp_path / "ladder.png").stat().st_size > 10_000
 

@@ -116,7 +116,7 @@ def test_e10_frames_imports_nothing_the_realtime_only_payload_leaves_out_when_lo
     assert {"mitsuba", "drjit", "dask"} <= set(left_out)
     code = ("import importlib.util, sys; from importlib import metadata\n"
             "s = importlib.util.spec_from_file_location('e10_frames', 'benchmarks/gpu/e10_frames.py')\n"
-            "s.loader.exec_module(importlib.util.module_from_spec(s))\n"
+            "m = importlib.util.module_from_spec(s); sys.modules[s.name] = m; s.loader.exec_module(m)\n"
             "dists = metadata.packages_distributions()\n"
             "print(' '.join(sorted({d for m in sys.modules for d in dists.get(m.split('.')[0], [])})))")
     done = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True)
