@@ -6,6 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
+from groundtruth.exact import raycast
 from realtime.engine.environment_maps import filled_store
 from realtime.techniques.vct import vct_math
 from realtime.techniques.vct.vct import VoxelScene
@@ -104,3 +105,10 @@ def cap_map(axis=(0.0, 1.0, 0.0), height: int = 512) -> np.ndarray:
     inside = equirect_directions(height, 2 * height) @ np.asarray(axis, dtype=np.float64) > np.cos(CAP_HALF_ANGLE)
     return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
 
+
+
+def predicted_back(s: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """(hit, n.v <= 0) at every pixel centre, from the numpy ray cast (same mesh, same vertex normals)."""
+    hits = raycast.cast(s, subpixels=1)
+    n_dot_v = np.sum(hits.normal[..., 0, :] * -hits.direction[..., 0, :], axis=-1)
+    return hits.hit[..., 0], hits.hit[..., 0] & (n_dot_v <= 0)

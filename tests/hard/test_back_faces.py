@@ -20,6 +20,7 @@ import scenes
 from experiments.measure import metrics
 from experiments.paper import e06_hostile_cases as hostile
 from groundtruth.exact import quadrature, raycast
+from tests.helpers import predicted_back
 
 pytestmark = [pytest.mark.gl, pytest.mark.mitsuba]
 SIZE, SPP = 32, 64
@@ -45,13 +46,6 @@ def plane(elevation_deg: float, distance: float = 3.5, **ov) -> scenes.Scene:
 def psnr(s, a, b) -> float | None:
     mask = metrics.common_mask(a.mask, b.mask)
     return metrics.psnr(metrics.display(s, a.rgb), metrics.display(s, b.rgb), mask)
-
-
-def predicted_back(s) -> tuple[np.ndarray, np.ndarray]:
-    """(hit, n.v <= 0) at every pixel centre, from the numpy ray cast (same mesh, same vertex normals)."""
-    hits = raycast.cast(s, subpixels=1)
-    n_dot_v = np.sum(hits.normal[..., 0, :] * -hits.direction[..., 0, :], axis=-1)
-    return hits.hit[..., 0], hits.hit[..., 0] & (n_dot_v <= 0)
 
 
 @pytest.mark.parametrize("elevation", [-80.0, -45.0, -20.0, -10.0])

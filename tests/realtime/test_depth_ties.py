@@ -19,7 +19,7 @@ import pytest
 
 import realtime
 import scenes
-from groundtruth.exact import raycast
+from tests.helpers import predicted_back
 
 pytestmark = pytest.mark.gl
 SIZE = 192
@@ -32,13 +32,11 @@ def black_and_back(spec: str, **overrides) -> tuple[np.ndarray, np.ndarray, np.n
     """(real-time pixels black and covered, ray cast's first hit facing away, covered by both) at SIZE^2."""
     s = scenes.load(spec).with_overrides({"camera.width": SIZE, "camera.height": SIZE,
                                           "realtime.timing_frames": 1, "realtime.warmup_frames": 0, **overrides})
-    hits = raycast.cast(s, subpixels=1)
-    n_dot_v = np.sum(hits.normal[..., 0, :] * -hits.direction[..., 0, :], axis=-1)
+    hit, back = predicted_back(s)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the scenes' unsimulated effects are not the point here
         r = realtime.render(s)
-    both = r.mask & hits.hit[..., 0]
-    return r.mask & (r.rgb.max(axis=-1) == 0), hits.hit[..., 0] & (n_dot_v <= 0), both
+    return r.mask & (r.rgb.max(axis=-1) == 0), back, r.mask & hit
 
 
 @pytest.mark.parametrize("spec", [
