@@ -43,8 +43,15 @@ def install(src: Path, target: Path) -> Path:
     return target
 
 
+def pythonpath(*folders: Path) -> str:
+    """The folders first, then the environment's own PYTHONPATH (a machine whose packages are installed into a
+    folder, like the GPU machine's, finds them there)."""
+    own = [os.environ["PYTHONPATH"]] if os.environ.get("PYTHONPATH") else []
+    return os.pathsep.join([*map(str, folders), *own])
+
+
 def iblcheck(site: Path, *args: str, cwd: Path) -> subprocess.CompletedProcess:
-    env = {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}"}
+    env = {**os.environ, "PYTHONPATH": pythonpath(site, ROOT)}
     return subprocess.run([sys.executable, "-m", "experiments.cli.main", *args], capture_output=True, text=True,
                           env=env, cwd=cwd, timeout=600)
 
@@ -76,7 +83,7 @@ def test_the_example_registers_beside_the_builtins(site, tmp_path):
     code = ("from scenes.model import technique_registry as r; import json, sys; "
             "print(json.dumps([[d.effect, d.name, d.distribution, d.builtin, list(d.ladder)] "
             "for d in r.declarations()])); print('moderngl' in sys.modules)")
-    env = {**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}"}
+    env = {**os.environ, "PYTHONPATH": pythonpath(site, ROOT)}
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, cwd=tmp_path,
                          check=True).stdout.splitlines()
     decls = json.loads(out[0])
@@ -198,12 +205,12 @@ def test_the_e7_ladder_takes_the_plugin_like_a_builtin(site, tmp_path):
     effect, after the builtin points, which stay as they are without the plugin (their row ids)."""
     code = ("import json; from experiments.paper import e07_accuracy_time_ladder as e7; p = e7.plugin_points(); "
             "print(json.dumps([e7.configs_for(label, e7.QUICK, p) for label, _, _ in e7.scene_list()]))")
-    def configs(pythonpath: str) -> list:
+    def configs(path: str) -> list:
         out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
-                             env={**os.environ, "PYTHONPATH": pythonpath})
+                             env={**os.environ, "PYTHONPATH": path})
         return json.loads(out.stdout)
 
-    with_plugin, without = configs(f"{site}{os.pathsep}{ROOT}"), configs(str(ROOT))
+    with_plugin, without = configs(pythonpath(site, ROOT)), configs(pythonpath(ROOT))
     assert with_plugin[0] == without[0] + [{"realtime.diffuse": "hemisphere"}]  # sphere-diffuse
     assert with_plugin[1:] == without[1:]  # a diffuse technique adds nothing to the glossy scenes
 
@@ -217,7 +224,7 @@ def test_an_e7_row_of_the_plugin_is_measured(site, tmp_path):
             "r = c.row('builtin:sphere-diffuse', {'realtime.diffuse': 'hemisphere'}, 'E7'); "
             "print(json.dumps([r.techniques['diffuse'], r.psnr, r.realtime_ms['total']]))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=tmp_path,
-                         env={**os.environ, "PYTHONPATH": f"{site}{os.pathsep}{ROOT}",
+                         env={**os.environ, "PYTHONPATH": pythonpath(site, ROOT),
                               "IBLCHECK_CACHE": str(tmp_path / "cache")}, timeout=600)
     diffuse, psnr, total_ms = json.loads(out.stdout.strip().splitlines()[-1])
     assert diffuse == "hemisphere" and 10.0 < psnr < 60.0 and total_ms > 0.0
