@@ -45,7 +45,7 @@ from scenes.model import materials, technique_registry
 from scenes.model.render import Render
 
 #: bump when what a row measures changes for the same scene (it is part of every row id)
-ROW_VERSION = 2
+ROW_VERSION = 3
 
 
 @lru_cache(maxsize=64)

@@ -355,16 +355,8 @@ class SceneDrawer:
             ibo = ctx.buffer(mesh.indices.astype("i4").tobytes())
             vao = ctx.vertex_array(self.prog, [(vbo, "3f 3f", "in_position", "in_normal")], index_buffer=ibo)
             self.objects.append((obj, vbo, ibo, vao))
-        near, far = self._depth_range()
+        near, far = cam.depth_range([obj.mesh.positions for obj in self.scene.objects])
         self.view_proj = cam.projection_matrix(near, far) @ cam.view_matrix()
-
-    def _depth_range(self) -> tuple[float, float]:
-        origin = np.asarray(self.scene.camera.origin, dtype=np.float64)
-        far = 1.0
-        for obj in self.scene.objects:
-            d = np.linalg.norm(obj.mesh.positions.astype(np.float64) - origin, axis=1)
-            far = max(far, float(d.max()))
-        return far * 1e-4, far * 1.01
 
     def draw_background(self, rotation_deg: float) -> None:
         """Clear the target and draw the environment behind everything (alpha 0 = not covered).

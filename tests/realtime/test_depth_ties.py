@@ -5,9 +5,10 @@ says whether its shading normal faces the viewer; the one-sided rule (scenes/mod
 real-time pixel black exactly where it does not. A black pixel where the ray cast finds a front-facing first
 hit is a back face that won the depth test against a nearer front face.
 
-Known limit (docs/contract.md, "Back faces"): the projection's near plane is far x 1e-4, so at 4 units the
-24-bit depth buffer resolves about 2e-3, and a back face closer than that behind a front face, as at
-bowl-diffuse's rim, can win. Those scenes are marked strict xfail, so the marker must go when the limit is fixed.
+The projection's near plane sets the depth buffer's step: about z^2 / (near 2^24) at eye depth z. With a near
+plane of far x 1e-4 it was 2e-3 at 4 units, and at bowl-diffuse's rim (a back-facing wall 1-2.5e-3 behind the
+rim) and six other builtin scenes a back face won at 2-10 pixels; Camera.depth_range puts the near plane at
+0.9 x the least eye depth of any vertex (tests/scenes/test_depth_range.py checks its steps).
 """
 
 from __future__ import annotations
@@ -24,9 +25,6 @@ from tests.helpers import predicted_back
 pytestmark = pytest.mark.gl
 SIZE = 192
 
-DEPTH_TIE = pytest.mark.xfail(strict=True, reason="near plane far x 1e-4: a back face within the depth buffer's "
-                                                 "step behind a front face can win (docs/contract.md)")
-
 
 def black_and_back(spec: str, **overrides) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(real-time pixels black and covered, ray cast's first hit facing away, covered by both) at SIZE^2."""
@@ -40,9 +38,9 @@ def black_and_back(spec: str, **overrides) -> tuple[np.ndarray, np.ndarray, np.n
 
 
 @pytest.mark.parametrize("spec", [
-    "builtin:cornell-open", "builtin:sphere-on-plane", "builtin:torus-phong",
-    pytest.param("builtin:bowl-diffuse", marks=DEPTH_TIE),
-    pytest.param("builtin:rook-phong", marks=DEPTH_TIE),
+    "builtin:cornell-open", "builtin:sphere-on-plane", "builtin:torus-phong", "builtin:bowl-diffuse",
+    "builtin:rook-phong", "builtin:teapot-blend", "builtin:thin-wall", "builtin:pawn-blend",
+    "builtin:spheres-pbr-metal",
 ])
 def test_no_pixel_is_black_where_the_first_hit_faces_the_viewer(spec):
     black, back, both = black_and_back(spec)
