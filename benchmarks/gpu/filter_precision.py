@@ -3,10 +3,11 @@
 A float texture read with `texture()` between two texels holding 0 and 1 returns the bilinear weight itself, and
 `textureLod()` between a mip level of 0 and one of 1 returns the LOD's fraction. Swept over N evenly spaced
 positions, exact float filtering (Mesa llvmpipe) returns N distinct values on the line y = t; a texture unit that
-quantises its weights to b bits returns 2^b + 1 steps and misses the line by up to 2^-(b+1). The OpenGL
+quantises its weights to b bits returns 2^b + 1 steps and misses the line by up to 2^-(b+1) where it rounds and
+2^-b where it truncates. The OpenGL
 specification leaves this precision to the implementation (D3D11 requires at least 8 bits of sub-texel precision
-for the bilinear weight), so a test that compares a filtered image with its exact numpy mirror has to allow for
-it when it runs on hardware: the difference between two filtered texels, times the weight step.
+for the bilinear weight): a filtered read on hardware may miss its exact float mirror by the weight step times
+the difference between the texels (or levels) it blends.
 
     .venv/bin/python benchmarks/gpu/filter_precision.py [--out FILE.json]          # here (llvmpipe)
     bash benchmarks/gpu/device.sh script benchmarks/gpu/filter_precision.py --out $OUT/filter.json   # on a GPU
@@ -55,9 +56,8 @@ void main() {
 """
 
 
-def sweep(ctx: moderngl.Context, fragment: str, texture: moderngl.Texture) -> dict[str, float | int]:
-    """Reads the filtered value at N positions t in [0, 1] and sets it against t; `weight_bits` is None where
-    all N values differ (finer than 12 bits)."""
+def sweep(ctx: moderngl.Context, fragment: str, texture: moderngl.Texture) -> dict[str, float | int | None]:
+    """Reads the filtered value at N positions t in [0, 1] and sets it against t (`weight_steps`)."""
     program = ctx.program(vertex_shader=VERTEX, fragment_shader=fragment)
     program["n"].value = float(N)
     quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], np.float32).tobytes())
@@ -70,11 +70,16 @@ def sweep(ctx: moderngl.Context, fragment: str, texture: moderngl.Texture) -> di
     program["tex"].value = 0
     vao.render(moderngl.TRIANGLE_STRIP)
     rgba = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32).reshape(N, 4).astype(np.float64)
-    value, t = rgba[:, 0], rgba[:, 1]
-    steps = len(np.unique(value))
     for obj in (fbo, target, vao, quad, program):
         obj.release()
-    quantised = steps < N  # N distinct values: the weights are finer than the sweep can tell
+    return weight_steps(rgba[:, 0], rgba[:, 1])
+
+
+def weight_steps(value: np.ndarray, t: np.ndarray) -> dict[str, float | int | None]:
+    """The filtered values against the exact weights t: the largest miss, the number of distinct values and the
+    bits they resolve, None where every value differs (the weights are finer than the sweep can tell)."""
+    steps = len(np.unique(value))
+    quantised = steps < len(t)
     return {"max_abs_error": float(np.abs(value - t).max()), "distinct_values": steps,
             "weight_bits": round(math.log2(max(steps - 1, 1)), 2) if quantised else None}
 

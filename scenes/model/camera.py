@@ -61,16 +61,17 @@ class Camera:
     def depth_range(self, positions: Sequence[np.ndarray]) -> tuple[float, float]:
         """(near, far) for the projection: every vertex between them, the near plane as far out as it can go.
 
-        A perspective depth buffer of b bits resolves eye depth z in steps of about z² / (near · 2^b) when
-        far ≫ near (window depth is (far / (far − near)) (1 − near / z), whose slope is near / z²): the near
-        plane sets the step. With a near plane of far × 1e-4 (0.46 mm for a bowl seen from 4.6 units) a 24-bit
-        buffer steps by 2·10⁻³ at 4 units, and a back face 1–2.5·10⁻³ behind a front face, as where a bowl's rim
-        meets its walls, can win the depth test and show black.
+        With OpenGL's default depth range, window depth is (f / (f − n)) (1 − n / z) for eye depth z (this
+        projection_matrix), whose slope is f n / ((f − n) z²): a buffer of b bits resolves z in steps of
+        z² (f − n) / (f n 2^b), about z² / (n 2^b) when f ≫ n. The near plane sets the step. With a near plane
+        of far × 1e-4 (4.6·10⁻⁴ for a bowl seen from 4.6 units) a 24-bit buffer steps by 2·10⁻³ at 4 units, and a
+        back face 1–2.5·10⁻³ behind a front face, as where a bowl's rim meets its walls, can win the depth test
+        and show black.
 
         - near: 0.9 × the least eye depth of any vertex. A triangle's eye depth is linear between its vertices,
           so no point of the meshes lies nearer and nothing visible is clipped. Where a vertex lies at or behind
-          the camera (the camera inside an object's span), near falls back to 10⁻⁴ of the greatest vertex
-          distance below.
+          the camera (the camera inside an object's span, or a plane passing under it), a triangle may reach
+          any depth down to 0 and near falls back to 10⁻⁴ of the greatest vertex distance below.
         - far: 1.01 × the greatest distance from the camera to a vertex (at least 1; a distance is at least the
           eye depth, so no vertex lies beyond it).
         """
@@ -82,9 +83,8 @@ class Camera:
             if len(offsets):
                 farthest = max(farthest, float(np.linalg.norm(offsets, axis=1).max()))
                 least_depth = min(least_depth, float((offsets @ forward).min()))
-        floor = farthest * 1e-4
-        near = 0.9 * least_depth if np.isfinite(least_depth) else floor
-        return max(near, floor), 1.01 * farthest
+        near = 0.9 * least_depth if 0.0 < least_depth < np.inf else farthest * 1e-4
+        return near, 1.01 * farthest
 
     def mitsuba_to_world(self) -> np.ndarray:
         """4x4 camera -> world for Mitsuba's `perspective` sensor.
