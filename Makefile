@@ -41,8 +41,9 @@ system-deps:
 	@bash .ci/system-deps.sh
 
 # the import contracts of docs/architecture.md first (seconds), then the tests on two processes (pytest-xdist;
-# `-n 0` runs them in one, e.g. `make test PYTEST_ARGS="-n 0"`)
-PYTEST_ARGS ?= -n 2
+# `-n 0` runs them in one, e.g. `make test PYTEST_ARGS="-n 0"`); the 25 slowest are listed at the end, where
+# the suite's time goes
+PYTEST_ARGS ?= -n 2 --durations=25
 test: setup
 	@bash .ci/system-deps.sh --test
 	$(VENV)/bin/lint-imports

@@ -319,7 +319,8 @@ def plot_ladder(gpu_dir: Path, summary: Path, path: Path) -> None:
         ax.set_ylabel(f"unbiased PSNR dB at {E10_SIZE[0]}x{E10_SIZE[1]} (E10)")
         ax.grid(True, which="both", alpha=0.3)
     handles = [plt.Line2D([], [], marker="o", ls="", color=colours[m], label=m) for m in e10.MODES]
-    axes[0][1].legend(handles=handles, fontsize=8, loc="center left")  # bowl-diffuse's empty middle
+    # torus-phong's empty middle left (in bowl-diffuse's, it covered the direct row)
+    axes[0][-1].legend(handles=handles, fontsize=8, loc="center left")
     plots.save(fig, path)
 
 
