@@ -33,32 +33,25 @@ in vec2 position;
 void main() { gl_Position = vec4(position, 0.0, 1.0); }
 """
 
+#: the fragment shader: pixel x of N reads the texture at t = x / (N - 1) through READ, and writes (value, t)
+FRAGMENT = """#version 430
+uniform sampler2D tex;
+uniform float n;
+out vec4 colour;
+void main() {
+    float t = (gl_FragCoord.x - 0.5) / (n - 1.0);
+    colour = vec4(READ, t, 0.0, 1.0);
+}
+"""
 #: the bilinear weight: u runs from texel 0's centre (0.25 of a 2-texel row) to texel 1's (0.75)
-BILINEAR = """#version 430
-uniform sampler2D tex;
-uniform float n;
-out vec4 colour;
-void main() {
-    float t = (gl_FragCoord.x - 0.5) / (n - 1.0);
-    colour = vec4(texture(tex, vec2(0.25 + 0.5 * t, 0.5)).r, t, 0.0, 1.0);
-}
-"""
-
+BILINEAR = "texture(tex, vec2(0.25 + 0.5 * t, 0.5)).r"
 #: the LOD fraction: level 0 holds 0, level 1 holds 1, read at LOD t
-TRILINEAR = """#version 430
-uniform sampler2D tex;
-uniform float n;
-out vec4 colour;
-void main() {
-    float t = (gl_FragCoord.x - 0.5) / (n - 1.0);
-    colour = vec4(textureLod(tex, vec2(0.5), t).r, t, 0.0, 1.0);
-}
-"""
+TRILINEAR = "textureLod(tex, vec2(0.5), t).r"
 
 
-def sweep(ctx: moderngl.Context, fragment: str, texture: moderngl.Texture) -> dict[str, float | int | None]:
-    """Reads the filtered value at N positions t in [0, 1] and sets it against t (`weight_steps`)."""
-    program = ctx.program(vertex_shader=VERTEX, fragment_shader=fragment)
+def sweep(ctx: moderngl.Context, read: str, texture: moderngl.Texture) -> dict[str, float | int | None]:
+    """Reads the filtered value at N positions t in [0, 1] through `read` and sets it against t (`weight_steps`)."""
+    program = ctx.program(vertex_shader=VERTEX, fragment_shader=FRAGMENT.replace("READ", read))
     program["n"].value = float(N)
     quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], np.float32).tobytes())
     vao = ctx.vertex_array(program, [(quad, "2f", "position")])
