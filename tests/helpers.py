@@ -106,7 +106,6 @@ def cap_map(axis=(0.0, 1.0, 0.0), height: int = 512) -> np.ndarray:
     return np.repeat(np.where(inside, 11.0, 1.0)[..., None], 3, axis=-1).astype(np.float32)
 
 
-
 def predicted_back(s: Scene) -> tuple[np.ndarray, np.ndarray]:
     """(hit, n.v <= 0) at every pixel centre, from the numpy ray cast (same mesh, same vertex normals)."""
     hits = raycast.cast(s, subpixels=1)
