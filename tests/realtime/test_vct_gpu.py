@@ -43,6 +43,7 @@ from realtime.techniques.vct import vct, vct_math
 from realtime.techniques.vct.vct import VoxelScene, scene_bounds
 from scenes.environment.shbasis import sh9
 from scenes.geometry.meshes import BOWL_INNER, bowl_centre
+from tests.helpers import IMAGE_ONLY
 
 pytestmark = pytest.mark.gl
 
@@ -1247,7 +1248,7 @@ def test_the_shading_scales_the_gathered_glossy_bounce_by_the_lobes_share_above_
     path = tmp_path / "grazing.toml"
     path.write_text(GRAZING_SCENE)
     base = scenes.load(str(path)).with_overrides({"realtime.occlusion": "vct", "realtime.vct.resolution": 32,
-                                                  "realtime.vct.cascades": 1})
+                                                  "realtime.vct.cascades": 1, **IMAGE_ONLY})
     both = base.with_overrides({"realtime.interreflection": "vct"})
 
     def bounce():
