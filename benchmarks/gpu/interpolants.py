@@ -35,6 +35,7 @@ import scenes
 from groundtruth.exact import raycast
 from realtime.engine import gpu
 from realtime.engine.context import get_context
+from scenes.storage import files
 
 #: the shading pass's last line, which the measurement replaces with the interpolant it reads back
 FINAL_LINE = "frag = vec4(max(color, vec3(0.0)), 1.0);"
@@ -110,11 +111,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--size", type=int, default=64)
     parser.add_argument("--out", type=Path, help="also write the result here (JSON)")
     args = parser.parse_args(argv)
-    text = json.dumps(measure(args.scene, args.size), indent=1)
-    print(text)
-    if args.out:
+    text = json.dumps(measure(args.scene, args.size), indent=1) + "\n"
+    sys.stdout.write(text)
+    if args.out:  # written whole or not at all
         args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text(text + "\n")
+        files.write_bytes(args.out, text.encode())
     return 0
 
 
