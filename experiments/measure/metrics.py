@@ -8,7 +8,8 @@ Conventions:
 - Defined results at the edges, never NaN or Infinity (JSON has neither):
   identical images give `PSNR_CAP` (100 dB); an empty mask gives None for every metric.
 - `no_signal(reference, mask)`: why a comparison would measure nothing (too few pixels, a black
-  reference); experiments/measure/pair.py then reports every metric as None.
+  reference, a reference clipped white); experiments/measure/pair.py then reports every metric as None.
+  `white_share` says how much of a comparison the tone mapping has clipped.
 """
 
 from __future__ import annotations
@@ -35,15 +36,21 @@ MIN_PIXELS = 4
 #: a reference pixel is lit when one channel of its display value reaches half an 8-bit step: below
 #: it, the pixel is black in every 8-bit picture of the reference
 LIT = 0.5 / 255
+#: a reference pixel is white when every channel of its display value is within half an 8-bit step of 1:
+#: the tone mapping has clipped it at its white point, so a test pixel as bright or brighter displays the same
+WHITE = 1.0 - 0.5 / 255
 
 
 def no_signal(reference: np.ndarray, mask: np.ndarray, min_pixels: int = MIN_PIXELS) -> str | None:
     """Why comparing against `reference` (display values) over `mask` would measure nothing, or None.
 
-    A comparison carries no signal when it counts fewer than `min_pixels` pixels, or when no counted
+    A comparison carries no signal when it counts fewer than `min_pixels` pixels, when no counted
     pixel of the reference is lit (`LIT`): a black reference matches a black test image with PSNR 100
     and SSIM 1, which says nothing about the technique (the camera inside a one-sided sphere, a light
-    behind the object). Such a comparison's metrics are None (experiments/measure/pair.py).
+    behind the object); or, the same at the other end, when every counted pixel of the reference is
+    white (`WHITE`): the tone mapping has clipped the whole object (a bright probe whose log-average,
+    and so the exposure, is set by its dark parts), and any test image as bright scores PSNR 100. Such a
+    comparison's metrics are None (experiments/measure/pair.py).
     """
     n = int(mask.sum())
     if n == 0:
@@ -52,7 +59,19 @@ def no_signal(reference: np.ndarray, mask: np.ndarray, min_pixels: int = MIN_PIX
         return f"{n} covered pixel{'s' * (n != 1)}, fewer than the {min_pixels} a comparison needs"
     if not (np.asarray(reference)[mask] >= LIT).any():
         return f"no lit pixel in the reference (all {n} covered pixels display as black)"
+    if not (np.asarray(reference)[mask] < WHITE).any():
+        return (f"no pixel of the reference below white (all {n} covered pixels display as white: the tone mapping "
+                f"clips them; a lower tonemap.exposure shows them)")
     return None
+
+
+def white_share(reference: np.ndarray, mask: np.ndarray) -> float | None:
+    """The share of the counted pixels whose reference displays as white (every channel at least `WHITE`):
+    where the tone mapping has clipped the reference, a test image too bright by any amount shows no error.
+    None for an empty mask."""
+    if not mask.any():
+        return None
+    return float(np.all(np.asarray(reference)[mask] >= WHITE, axis=-1).mean())
 
 
 def display(scene, rgb: np.ndarray) -> np.ndarray:

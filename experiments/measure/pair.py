@@ -70,6 +70,17 @@ class EmptyComparison(UserWarning):
     """A comparison whose pixels carry no signal (`metrics.no_signal`): its metrics are None."""
 
 
+class ClippedComparison(UserWarning):
+    """A comparison most of whose pixels display as white in the reference (`metrics.white_share` above
+    `CLIPPED_SHARE`): its metrics stand, but an error above the tone mapping's white point does not count there."""
+
+
+#: the share of a comparison's pixels clipped white in the reference above which a `ClippedComparison` warns:
+#: more than half of what the metrics average cannot show a test image that is too bright (the builtin scenes
+#: clip at most 8 %, a torus's and a rook's highlights)
+CLIPPED_SHARE = 0.5
+
+
 @dataclass(frozen=True)
 class Measurement:
     """What `measure_pair` computed for one (test, reference) pair.
@@ -102,7 +113,9 @@ class Measurement:
         The LDR FLIP map of the whole image (`metrics.flip_map`); `flip` is its mean over `mask`.
     empty : str or None
         Why the comparison carries no signal (`metrics.no_signal`: too few covered pixels, no lit pixel
-        in the reference), or None. An empty comparison's metrics are all None, an `EmptyComparison`
+        in the reference, every pixel of the reference clipped white), or None. A comparison with signal
+        but more than `CLIPPED_SHARE` of its pixels clipped white keeps its metrics with a
+        `ClippedComparison` warning. An empty comparison's metrics are all None, an `EmptyComparison`
         warning says why (printed as a `warning:` line), and the gate fails it unless the scene's
         [gate] table says `allow_empty = true` (experiments/runs/gate.py).
     """
@@ -172,6 +185,12 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
         # user text in the message: the CLI prints every warning through text.one_line
         warnings.warn(f"{scene.name}: the compared pixels carry no signal: {empty}; its metrics are null",
                       EmptyComparison, stacklevel=2)
+    else:
+        clipped = metrics.white_share(b, covered)
+        if clipped is not None and clipped > CLIPPED_SHARE:
+            warnings.warn(f"{scene.name}: {clipped:.0%} of the compared pixels display as white in the reference "
+                          f"(clipped by the tone mapping): an error above its white point does not count there; a "
+                          f"lower tonemap.exposure shows it", ClippedComparison, stacklevel=2)
     # an empty comparison measures over no pixel, so every metric is None (metrics' convention)
     mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:

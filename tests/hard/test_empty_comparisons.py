@@ -1,8 +1,9 @@
 """An empty comparison never passes a gate, and a threshold above the reference's noise floor fails
 with the spp that would resolve it.
 
-A comparison carries no signal when the reference has no lit pixel (both images black: PSNR 100, SSIM 1)
-or when fewer pixels are covered than `metrics.MIN_PIXELS`. Its metrics are then null, a `warning:`
+A comparison carries no signal when the reference has no lit pixel (both images black: PSNR 100, SSIM 1),
+when every pixel of the reference is clipped white by the tone mapping (any test image as bright scores
+PSNR 100), or when fewer pixels are covered than `metrics.MIN_PIXELS`. Its metrics are then null, a `warning:`
 line says why, and the gate fails the scene with that reason unless the scene's [gate] table says
 `allow_empty = true`. Negative controls: a lit comparison keeps its numbers, a threshold below the floor
 is an ordinary check.
@@ -39,6 +40,7 @@ def render(value: float, covered: int | None = None, meta: dict | None = None) -
     (1e-12, None, "no lit pixel"),                    # below half an 8-bit step once displayed
     (1.0, 0, "no pixel is covered"),                  # the object outside the view
     (1.0, 3, "fewer than the 4"),                     # a silhouette's edge, not an image
+    (1e6, None, "no pixel of the reference below white"),  # clipped whole by the tone mapping's white point
 ])
 def test_no_signal_reasons(ref, covered, words):
     b = metrics.display(SCENE, render(ref).rgb)
@@ -58,6 +60,27 @@ def test_lit_or_large_enough_comparisons_have_signal():
     assert metrics.no_signal(np.full((2, 2, 3), 0.49 / 255, np.float32), np.ones((2, 2), bool), 1)
 
 
+def test_one_pixel_below_white_is_signal():
+    """Negative control of the white case: one channel of one pixel half an 8-bit step below 1 is signal (a test
+    pixel darker than it shows), and a display value of exactly `WHITE` is white."""
+    white = np.full((2, 2, 3), metrics.WHITE, np.float32)
+    mask = np.ones((2, 2), bool)
+    assert "below white" in metrics.no_signal(white, mask, 1)
+    white[1, 0, 2] = 1.0 - 0.51 / 255
+    assert metrics.no_signal(white, mask, 1) is None
+
+
+@pytest.mark.parametrize("white_pixels", [0, 1, 3, 4])
+def test_the_white_share_counts_pixels_white_in_every_channel(white_pixels):
+    """k of 4 pixels white in all three channels: k / 4; a pixel white in two channels only is not white."""
+    b = np.full((4, 1, 3), 0.5, np.float32)
+    b[:white_pixels] = 1.0
+    if white_pixels < 4:
+        b[white_pixels, 0, :2] = 1.0  # two channels clipped, the third resolved
+    assert metrics.white_share(b, np.ones((4, 1), bool)) == white_pixels / 4
+    assert metrics.white_share(b, np.zeros((4, 1), bool)) is None
+
+
 def _measure(test: Render, ref: Render, ref2: Render | None = None) -> tuple[pair.Measurement, list[str]]:
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -72,6 +95,30 @@ def test_black_against_black_measures_nothing_and_warns():
     assert m.pixels == int(metrics.common_mask(np.ones((16, 16), bool), np.ones((16, 16), bool)).sum())
     result = comparison.compare(render(0.0), render(0.0), SCENE, measured=m)
     assert result["psnr"] is None and "no lit pixel" in result["no_signal"]
+
+
+def white_on(share: float) -> Render:
+    """`render(0.5)` with its first `share` of pixels (row order) far above the tone mapping's white point."""
+    r = render(0.5)
+    r.rgb.reshape(-1, 3)[: int(round(share * 256))] = 1e6
+    return r
+
+
+@pytest.mark.parametrize(("share", "warns"), [(0.6, True), (0.4, False)])
+def test_a_comparison_mostly_clipped_white_keeps_its_metrics_and_warns(share, warns):
+    """More than half the compared pixels white in the reference: the metrics stand, a ClippedComparison
+    warning names the share. Control: 40 % white measures without it."""
+    ref = white_on(share)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        m = pair.measure_pair(render(0.4), ref, SCENE, second_reference=ref)
+    clipped = [str(w.message) for w in caught if issubclass(w.category, pair.ClippedComparison)]
+    assert m.psnr is not None and m.empty is None
+    share_counted = metrics.white_share(m.reference, m.mask)
+    assert (share_counted > pair.CLIPPED_SHARE) is warns
+    assert len(clipped) == int(warns)
+    if warns:
+        assert f"{share_counted:.0%} of the compared pixels display as white" in clipped[0]
 
 
 def test_a_lit_comparison_keeps_its_metrics():
