@@ -274,6 +274,8 @@ class Scene:
                 raise
             named = "" if exc.key == key else f"{exc.key}: "
             raise SceneError(f"{self.path}: override {key}: {named}unknown key; allowed: {exc.allowed}") from None
+        except SceneError as exc:
+            raise _override_value_error(exc, self.path, overrides) from None
 
     def _base_dir(self) -> Path:
         return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent
@@ -829,6 +831,17 @@ def _override_naming(named_key: str, overrides: dict[str, Any]) -> str | None:
                                             for p, n in zip(parts, named, strict=False)):
             return key
     return None
+
+
+def _override_value_error(exc: SceneError, where: str, overrides: dict[str, Any]) -> SceneError:
+    """A value error of a loaded (valid) scene's overrides, `{where}: KEY = VALUE: must be ...`, named as the
+    override was typed (`{where}: override camera.width = -8: ...`), so that nobody looks for the value in the
+    file; an error about a key no override names (a limit between two keys) as it was."""
+    head = f"{where}: "
+    text = str(exc)
+    key, sep, rest = text[len(head):].partition(" = ")
+    typed = _override_naming(key, overrides) if type(exc) is SceneError and text.startswith(head) and sep else None
+    return exc if typed is None else SceneError(f"{head}override {typed} = {rest}")
 
 
 def _set_dotted(tree: dict, parts: list[str], value: Any, key: str, where: str) -> None:

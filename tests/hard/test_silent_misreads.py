@@ -187,7 +187,8 @@ def test_builtin_resolutions_over_the_limit_are_refused_with_the_count():
     import scenes
 
     for shape, res in (("sphere", 1024), ("torus", 600), ("teapot", 200), ("bowl", 1024), ("plane", 1024)):
-        with pytest.raises(SceneError, match=rf"objects\[0\].resolution = {res}: a {shape} of \d+ triangles"):
+        # an override, named as typed
+        with pytest.raises(SceneError, match=rf"override objects.0.resolution = {res}: a {shape} of \d+ triangles"):
             scenes.load("builtin:sphere-blend").with_overrides({"objects.0.shape": shape, "objects.0.resolution": res})
 
 
