@@ -19,6 +19,7 @@ import time
 import numpy as np
 import pytest
 
+from experiments.cli import entry
 from experiments.cli import main as cli
 from experiments.measure.results import RESULTS
 from experiments.paper import e06_hostile_cases as hostile
@@ -254,7 +255,7 @@ def test_the_smallest_field_of_view_renders(tmp_path, capsys):
 @pytest.mark.parametrize(("sets", "words"), [
     (["camera.width=16384", "camera.height=16384"], ["camera.width x camera.height", "67108864"]),
     (["camera.width=16384", "camera.height=4097"], ["pixels"]),
-    (["objects.0.resolution=1024"], ["objects[0].resolution = 1024", "4190208 triangles"]),
+    (["objects.0.resolution=1024"], ["override objects.0.resolution = 1024", "4190208 triangles"]),
     (["objects.0.shape=\"teapot\"", "objects.0.resolution=200"], ["teapot", "triangles"]),
     (["environment.map=\"a\\u0000b.exr\""], ["environment.map", "NUL"]),
     (["objects.0.shape=\"a\\u0000b.obj\""], ["shape", "NUL"]),
@@ -319,6 +320,35 @@ def test_ctrl_c_exits_130_and_the_sweep_resumes(tmp_path):
     assert done.returncode == 0, done.stderr
     ids = [json.loads(x)["id"] for x in results.read_text().splitlines()]
     assert len(ids) == len(set(ids)) == 32 and ids[: len(first)] == first
+
+
+class _InterruptedImport:
+    """A finder that raises KeyboardInterrupt when `name` is imported: a Ctrl-C landing in that import."""
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+
+    def find_spec(self, fullname, path=None, target=None):
+        if fullname == self.name:
+            raise KeyboardInterrupt
+        return None
+
+
+@pytest.mark.parametrize("interrupted", [True, False])
+def test_ctrl_c_while_the_command_line_imports_exits_130_with_one_line(capsys, monkeypatch, interrupted):
+    """The console script's entry imports the command line inside its guard: an interrupt there is one `error:`
+    line and 130, as an interrupt during a command is. Control: the same entry without the interrupt runs the
+    command (`--help`, 0)."""
+    monkeypatch.delitem(sys.modules, "experiments.cli.main")
+    monkeypatch.delattr("experiments.cli.main", raising=False)
+    if interrupted:
+        monkeypatch.setattr(sys, "meta_path", [_InterruptedImport("experiments.cli.main"), *sys.meta_path])
+    code = entry.main(["--help"])
+    captured = capsys.readouterr()
+    if interrupted:
+        assert code == 130 and captured.err == "error: interrupted while starting; nothing was written\n"
+    else:
+        assert code == 0 and "usage: iblcheck" in captured.out and captured.err == ""
 
 
 class _GoneReader:
