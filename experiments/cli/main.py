@@ -103,6 +103,12 @@ def tolerance(flag: str, positive: bool = False):
     return parse
 
 
+def set_help(scope: str = "") -> str:
+    """The --set option's help, shared by the commands that take it (`scope`: " for every row", ...)."""
+    return (f"override a scene key{scope}, e.g. --set camera.width=64 --set reference.spp=64 (repeatable; a path "
+            "such as environment.map is relative to the working directory, a scene file's relative to the file)")
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = _Parser(prog="iblcheck", description="Validate real-time environment lighting against path-traced references.",
                 epilog="exit codes: 0 success, 1 a gate failed, 2 bad input or output path, 3 the machine lacks "
@@ -114,16 +120,16 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render one scene with one renderer, write EXR + PNG")
     r.add_argument("scene", help="scene file or builtin:NAME")
     r.add_argument("--renderer", choices=["realtime", "reference", "quadrature"], default="realtime")
-    r.add_argument("--set", action="append", metavar="K=V", help="override a scene key (repeatable)")
+    r.add_argument("--set", action="append", metavar="K=V", help=set_help())
     r.add_argument("-o", "--out", default=None, help="output .exr path (a .png is written beside it); default: "
                    "SLUG-RENDERER.exr in the working directory, SLUG the scene name's file-safe form")
     r.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
     r.set_defaults(func=_cmd_render)
 
     c = sub.add_parser("compare", help="real-time vs reference metrics for one scene")
-    c.add_argument("scene")
-    c.add_argument("--set", action="append", metavar="K=V")
-    c.add_argument("--json", action="store_true")
+    c.add_argument("scene", help="scene file or builtin:NAME")
+    c.add_argument("--set", action="append", metavar="K=V", help=set_help())
+    c.add_argument("--json", action="store_true", help="print the metrics and timings as one JSON object")
     c.add_argument("--sanitize", action="store_true", help="replace NaN/Inf/negative environment pixels by 0")
     c.add_argument("--image", metavar="FILE", help="score this engine's image instead of iblcheck's real-time render")
     c.add_argument("--image-encoding", choices=["linear", "srgb"], help="linear radiance (EXR/PFM/HDR, the default "
@@ -138,7 +144,7 @@ def build_parser() -> argparse.ArgumentParser:
     c.set_defaults(func=_cmd_compare)
 
     s = sub.add_parser("sweep", help="metrics and timings across face sizes and LOD biases")
-    s.add_argument("scenes", nargs="*")
+    s.add_argument("scenes", nargs="*", help="scene files or builtin:NAME")
     s.add_argument("--images", metavar="MANIFEST", help="append one row per engine image the TOML/JSON manifest "
                    "lists (scene, image, encoding, tonemap, exposure, label) instead of sweeping")
     s.add_argument("--face-sizes", help=f"comma-separated face sizes (default {DEFAULT_FACE_SIZES})")
@@ -153,19 +159,22 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--technique-axes", action="store_true",
                    help="also sweep every technique of each scene's effects with the parameters it declares worth "
                         "sweeping (SH order and window, irradiance-map sizes, LOD bias and mapping, samples)")
-    s.add_argument("--set", action="append", metavar="K=V", help="override a scene key for every row")
+    s.add_argument("--set", action="append", metavar="K=V", help=set_help(" for every row"))
     s.add_argument("--out", default="reports/sweep")
     add_cluster_options(s)
     s.set_defaults(func=_cmd_sweep)
 
     g = sub.add_parser("gate", help="CI image-quality gate (exit 1 on failure)")
-    g.add_argument("scenes", nargs="*")
+    g.add_argument("scenes", nargs="*", help="scene files or builtin:NAME")
     g.add_argument("--images", metavar="MANIFEST", help="gate each engine image the TOML/JSON manifest lists "
                    "against its scene's reference (baseline key: scene + label)")
-    g.add_argument("--min-psnr", type=threshold("min_psnr"))
-    g.add_argument("--min-ssim", type=threshold("min_ssim"))
-    g.add_argument("--max-flip", type=threshold("max_flip"))
-    g.add_argument("--junit", help="write JUnit XML here (one test case per scene)")
+    g.add_argument("--min-psnr", type=threshold("min_psnr"), metavar="DB",
+                   help="fail a scene whose PSNR (dB, tone-mapped sRGB) is lower; a scene's [gate] table can set it")
+    g.add_argument("--min-ssim", type=threshold("min_ssim"), metavar="X",
+                   help="fail a scene whose SSIM (-1 to 1) is lower; a scene's [gate] table can set it")
+    g.add_argument("--max-flip", type=threshold("max_flip"), metavar="X",
+                   help="fail a scene whose mean FLIP (0 to 1) is higher; a scene's [gate] table can set it")
+    g.add_argument("--junit", metavar="FILE", help="write JUnit XML here (one test case per scene)")
     g.add_argument("--markdown", metavar="FILE", help="write a short Markdown table here (for a pull-request comment)")
     g.add_argument("--baseline", metavar="FILE", help="fail when a scene got worse than its record in FILE "
                    "(beyond the reference's noise; see --tolerance-*) or is not in it")
@@ -180,13 +189,13 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--max-time-ratio", type=tolerance("--max-time-ratio", positive=True), metavar="R",
                    help="with --baseline: fail when the frame time exceeds R times the baseline's "
                         "(reported, never failed, without it)")
-    g.add_argument("--set", action="append", metavar="K=V")
+    g.add_argument("--set", action="append", metavar="K=V", help=set_help(" for every scene"))
     g.add_argument("--report", metavar="DIR", help="also write an HTML report of the gated scenes into DIR "
                    "(index.html with the image viewer; their rows are added to DIR/results.jsonl)")
     g.set_defaults(func=_cmd_gate)
 
     rep = sub.add_parser("report", help="regenerate DIR/index.html from DIR/results.jsonl")
-    rep.add_argument("dir")
+    rep.add_argument("dir", help="a folder a sweep, gate --report or compare --report wrote")
     rep.set_defaults(func=_cmd_report)
 
     export_cmd.add_parser(sub)
