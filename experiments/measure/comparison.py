@@ -24,7 +24,7 @@ import numpy as np
 import groundtruth
 import realtime
 from engines import command as engine_command
-from experiments.measure.pair import Measurement, measure_pair
+from experiments.measure.pair import CLIPPED_SHARE, Measurement, measure_pair
 from groundtruth.pathtracer import reference as pathtracer
 from realtime.engine.technique import UnsimulatedEffectWarning
 from scenes.model.render import Render
@@ -59,8 +59,9 @@ def compare(test: Render, reference: Render, scene, reference2: Render | None = 
     Keys: scene, psnr, psnr_unbiased (with psnr_unbiased_clamped), ssim, flip, rel_mse,
     noise_floor_psnr, at_noise_floor, realtime_ms (filter, draw, total and every other per-frame
     key of the techniques, plus precompute), reference_s, reference_spp, pixels,
-    unsimulated_effects; and no_signal, why, for an empty comparison only (`pair.Measurement.empty`:
-    too few covered pixels or a black reference). A metric with no pixels is None.
+    unsimulated_effects; no_signal, why, for an empty comparison only (`pair.Measurement.empty`: too few
+    covered pixels, a black or a clipped-white reference); clipped_share, for a comparison more than
+    `pair.CLIPPED_SHARE` of whose pixels are white in the reference only. A metric with no pixels is None.
 
     psnr_unbiased subtracts the reference's own noise variance (half the mean squared difference of
     its two seeds) from the MSE (metrics.psnr_unbiased): what a noise-free reference would score.
@@ -93,6 +94,8 @@ def compare(test: Render, reference: Render, scene, reference2: Render | None = 
         "unsimulated_effects": list(test.meta.get("unsimulated_effects", [])),
         # only for an empty comparison (metrics.no_signal): why its metrics are None (the gate fails it)
         **({"no_signal": m.empty} if m.empty else {}),
+        # only where the tone mapping clips most of the reference white (pair.CLIPPED_SHARE; the gate fails it)
+        **({"clipped_share": m.clipped} if m.clipped is not None and m.clipped > CLIPPED_SHARE else {}),
     }
 
 

@@ -28,6 +28,7 @@ problem with the file is a `scenes.InputError` naming it.
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,7 +38,7 @@ import numpy as np
 import groundtruth
 from engines import engine_timings, linear_image
 from experiments.measure import comparison, metrics
-from experiments.measure.pair import Measurement, measure_pair
+from experiments.measure.pair import CLIPPED_SHARE, ClippedComparison, Measurement, clipped_words, measure_pair
 from scenes import InputError
 from scenes.model import tone_operators
 from scenes.model.render import Render
@@ -229,6 +230,9 @@ def measure_display_pair(image: EngineImage, reference: Render, scene, *,
     b = display_reference(reference.rgb, image, scene)
     covered = metrics.common_mask(np.ones(a.shape[:2], bool), reference.mask)
     empty = metrics.no_signal(b, covered)
+    clipped = None if empty else metrics.white_share(b, covered)
+    if clipped is not None and clipped > CLIPPED_SHARE:
+        warnings.warn(f"{scene.name}: {clipped_words(clipped)}", ClippedComparison, stacklevel=2)
     mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:
         b2, noise_mask = None, mask
@@ -243,7 +247,7 @@ def measure_display_pair(image: EngineImage, reference: Render, scene, *,
         reference2=None if b2 is None else b2.astype(np.float32), mask=covered, noise_mask=noise_mask,
         empty=empty, psnr=metrics.psnr(a, b, mask), psnr_unbiased=metrics.UnbiasedPSNR(None, False),
         noise_floor_psnr=floor, ssim=ssim.value, ssim_map=ssim.map, ssim_selection=ssim.selection,
-        flip=float(flip_map[mask].mean()) if mask.any() else None, flip_map=flip_map, rel_mse=None)
+        flip=float(flip_map[mask].mean()) if mask.any() else None, flip_map=flip_map, rel_mse=None, clipped=clipped)
 
 
 def compare_image(image: EngineImage, scene, reference: Render | None = None,

@@ -75,10 +75,18 @@ class ClippedComparison(UserWarning):
     `CLIPPED_SHARE`): its metrics stand, but an error above the tone mapping's white point does not count there."""
 
 
-#: the share of a comparison's pixels clipped white in the reference above which a `ClippedComparison` warns:
-#: more than half of what the metrics average cannot show a test image that is too bright (the builtin scenes
-#: clip at most 8 %, a torus's and a rook's highlights)
+#: the share of a comparison's pixels clipped white in the reference above which a `ClippedComparison` warns and
+#: the gate fails: more than half of what the metrics average shows no error for a test image too bright there
+#: and dilutes the error of the rest (the builtin scenes at 64 x 64 clip at most 8 %, torus-phong's and
+#: rook-phong's highlights)
 CLIPPED_SHARE = 0.5
+
+
+def clipped_words(share: float) -> str:
+    """The reason a comparison `share` of whose pixels are clipped white says little (warning and gate failure)."""
+    return (f"{share:.0%} of the compared pixels display as white in the reference (clipped by the tone mapping): "
+            f"an error there does not count, and their zero errors dilute the rest's; lower tonemap.exposure "
+            f"until most of the object is below white")
 
 
 @dataclass(frozen=True)
@@ -118,6 +126,9 @@ class Measurement:
         `ClippedComparison` warning. An empty comparison's metrics are all None, an `EmptyComparison`
         warning says why (printed as a `warning:` line), and the gate fails it unless the scene's
         [gate] table says `allow_empty = true` (experiments/runs/gate.py).
+    clipped : float or None
+        The share of `mask`'s pixels that display as white in the reference (`metrics.white_share`); None for an
+        empty comparison. Above `CLIPPED_SHARE` a `ClippedComparison` warning says so and the gate fails it.
     """
 
     test: np.ndarray
@@ -135,6 +146,7 @@ class Measurement:
     flip_map: np.ndarray
     rel_mse: float | None
     empty: str | None = None
+    clipped: float | None = None
 
     @property
     def pixels(self) -> int:
@@ -185,12 +197,9 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
         # user text in the message: the CLI prints every warning through text.one_line
         warnings.warn(f"{scene.name}: the compared pixels carry no signal: {empty}; its metrics are null",
                       EmptyComparison, stacklevel=2)
-    else:
-        clipped = metrics.white_share(b, covered)
-        if clipped is not None and clipped > CLIPPED_SHARE:
-            warnings.warn(f"{scene.name}: {clipped:.0%} of the compared pixels display as white in the reference "
-                          f"(clipped by the tone mapping): an error above its white point does not count there; a "
-                          f"lower tonemap.exposure shows it", ClippedComparison, stacklevel=2)
+    clipped = None if empty else metrics.white_share(b, covered)
+    if clipped is not None and clipped > CLIPPED_SHARE:
+        warnings.warn(f"{scene.name}: {clipped_words(clipped)}", ClippedComparison, stacklevel=2)
     # an empty comparison measures over no pixel, so every metric is None (metrics' convention)
     mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:
@@ -208,4 +217,4 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
         psnr=metrics.psnr(a, b, mask), psnr_unbiased=unbiased, noise_floor_psnr=floor,
         ssim=ssim.value, ssim_map=ssim.map, ssim_selection=ssim.selection,
         flip=float(flip_map[mask].mean()) if mask.any() else None, flip_map=flip_map,
-        rel_mse=metrics.rel_mse(test.rgb, reference.rgb, mask))
+        rel_mse=metrics.rel_mse(test.rgb, reference.rgb, mask), clipped=clipped)

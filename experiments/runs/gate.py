@@ -60,7 +60,7 @@ import numpy as np
 
 import groundtruth
 from experiments.measure import comparison, engine_image, fields, metrics
-from experiments.measure.pair import Measurement, measure_pair
+from experiments.measure.pair import Measurement, clipped_words, measure_pair
 from experiments.measure.results import ResultRow
 from experiments.publish.outputs import write_bytes, write_text
 from experiments.publish.text import md_cell, one_line, xml_text
@@ -148,8 +148,10 @@ def evaluate(metrics: dict, thresholds: dict, allow_empty: bool = False) -> list
     """The failures of one scene's metrics against its thresholds (empty when it passes).
 
     An empty comparison (`metrics["no_signal"]`, experiments/measure/pair.py: no lit pixel in the
-    reference, too few covered pixels) never passes: it fails with its reason, unless `allow_empty`
-    (the scene's [gate] says `allow_empty = true`), when it passes with nothing to check. A `min_psnr`
+    reference, none below white, too few covered pixels) never passes: it fails with its reason, unless
+    `allow_empty` (the scene's [gate] says `allow_empty = true`), when it passes with nothing to check. A
+    comparison more than `pair.CLIPPED_SHARE` of whose pixels are clipped white in the reference
+    (`metrics["clipped_share"]`) fails with that reason whatever its metrics. A `min_psnr`
     above the reference's noise floor fails whatever the PSNR, with the spp that would resolve it
     (`unresolvable`)."""
     empty = metrics.get("no_signal")
@@ -157,7 +159,7 @@ def evaluate(metrics: dict, thresholds: dict, allow_empty: bool = False) -> list
         return [] if allow_empty else [
             f"empty comparison: {empty}; its metrics are null and it cannot pass. If this is expected, "
             "write allow_empty = true in the scene's [gate] table"]
-    failures = []
+    failures = [clipped_words(metrics["clipped_share"])] if metrics.get("clipped_share") else []
     for key, metric, op in CHECKS:
         if key not in thresholds:
             continue

@@ -107,7 +107,8 @@ def white_on(share: float) -> Render:
 @pytest.mark.parametrize(("share", "warns"), [(0.6, True), (0.4, False)])
 def test_a_comparison_mostly_clipped_white_keeps_its_metrics_and_warns(share, warns):
     """More than half the compared pixels white in the reference: the metrics stand, a ClippedComparison
-    warning names the share. Control: 40 % white measures without it."""
+    warning names the share and `compare` reports it (`clipped_share`, which the gate fails). Control: 40 %
+    white measures without either."""
     ref = white_on(share)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -115,10 +116,23 @@ def test_a_comparison_mostly_clipped_white_keeps_its_metrics_and_warns(share, wa
     clipped = [str(w.message) for w in caught if issubclass(w.category, pair.ClippedComparison)]
     assert m.psnr is not None and m.empty is None
     share_counted = metrics.white_share(m.reference, m.mask)
-    assert (share_counted > pair.CLIPPED_SHARE) is warns
+    assert (share_counted > pair.CLIPPED_SHARE) is warns and m.clipped == share_counted
     assert len(clipped) == int(warns)
+    result = comparison.compare(render(0.4), ref, SCENE, measured=m)
     if warns:
         assert f"{share_counted:.0%} of the compared pixels display as white" in clipped[0]
+        assert result["clipped_share"] == share_counted
+    else:
+        assert "clipped_share" not in result
+
+
+def test_the_gate_fails_a_mostly_clipped_comparison_whatever_its_metrics():
+    """A comparison 99 % clipped white in the reference fails with that reason though its PSNR clears the bound
+    (its clipped pixels' zero errors dilute the rest's). Control: the same metrics without the share pass."""
+    failures = gate.evaluate({"psnr": 58.4, "noise_floor_psnr": 57.0, "clipped_share": 0.99}, {"min_psnr": 30.0})
+    assert len(failures) == 1 and "99% of the compared pixels display as white" in failures[0]
+    assert "lower tonemap.exposure" in failures[0]
+    assert gate.evaluate({"psnr": 58.4, "noise_floor_psnr": 57.0}, {"min_psnr": 30.0}) == []
 
 
 def test_a_lit_comparison_keeps_its_metrics():

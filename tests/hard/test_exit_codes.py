@@ -397,3 +397,20 @@ def test_an_empty_list_option_is_refused_not_read_as_its_default(tmp_path, capsy
     assert cli.main([*args, "--out", str(tmp_path / "o")]) == 2
     assert "expected at least one" in capsys.readouterr().err
     assert not (tmp_path / "o").exists()
+
+
+def test_the_entry_point_starts_without_the_renderers():
+    """The guard above holds only if importing the entry (and so the `experiments` package) loads none of the slow
+    imports it guards: numpy, Mitsuba, OpenGL's wrappers. A fresh interpreter lists what the import loaded.
+    Control: importing the command line itself loads numpy."""
+    probe = ("import sys, importlib; importlib.import_module(sys.argv[1]); "
+             "print(' '.join(m for m in ('numpy', 'mitsuba', 'moderngl', 'dask') if m in sys.modules))")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+    def loaded(module: str) -> set[str]:
+        out = subprocess.run([sys.executable, "-c", probe, module], cwd=ROOT, env=env, capture_output=True,
+                             text=True, timeout=120, check=True).stdout
+        return set(out.split())
+
+    assert loaded("experiments.cli.entry") == set()
+    assert "numpy" in loaded("experiments.cli.main")
