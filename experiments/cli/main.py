@@ -168,12 +168,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("scenes", nargs="*", help="scene files or builtin:NAME")
     g.add_argument("--images", metavar="MANIFEST", help="gate each engine image the TOML/JSON manifest lists "
                    "against its scene's reference (baseline key: scene + label)")
-    g.add_argument("--min-psnr", type=threshold("min_psnr"), metavar="DB",
-                   help="fail a scene whose PSNR (dB, tone-mapped sRGB) is lower; a scene's [gate] table can set it")
-    g.add_argument("--min-ssim", type=threshold("min_ssim"), metavar="X",
-                   help="fail a scene whose SSIM (-1 to 1) is lower; a scene's [gate] table can set it")
-    g.add_argument("--max-flip", type=threshold("max_flip"), metavar="X",
-                   help="fail a scene whose mean FLIP (0 to 1) is higher; a scene's [gate] table can set it")
+    for key, metavar, fails in (("min_psnr", "DB", "PSNR (dB, tone-mapped sRGB) is lower"),
+                                ("min_ssim", "X", "SSIM (-1 to 1) is lower"),
+                                ("max_flip", "X", "mean FLIP (0 to 1) is higher")):
+        g.add_argument("--" + key.replace("_", "-"), type=threshold(key), metavar=metavar,
+                       help=f"fail a scene whose {fails}; a scene's [gate] table can set it")
     g.add_argument("--junit", metavar="FILE", help="write JUnit XML here (one test case per scene)")
     g.add_argument("--markdown", metavar="FILE", help="write a short Markdown table here (for a pull-request comment)")
     g.add_argument("--baseline", metavar="FILE", help="fail when a scene got worse than its record in FILE "

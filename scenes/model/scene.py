@@ -218,8 +218,8 @@ class Gate:
     min_psnr: float | None = None
     min_ssim: float | None = None
     max_flip: float | None = None
-    # an empty comparison (no lit pixel in the reference, none below white, too few covered pixels) is expected: the gate
-    # passes it instead of failing it (experiments/runs/gate.py)
+    # an empty comparison (no lit pixel in the reference, none below white, too few covered pixels) is expected:
+    # the gate passes it instead of failing it (experiments/runs/gate.py)
     allow_empty: bool = False
 
 

@@ -222,8 +222,8 @@ def test_a_bad_value_an_override_gives_is_blamed_on_the_override(tmp_path):
         scene.with_overrides({"camera.fov_deg": -3})
     with pytest.raises(SceneError, match=r"^builtin:sphere-diffuse: override objects.\*.scale = -2: must be "):
         scene.with_overrides({"objects.*.scale": -2})
-    path = write_scene(tmp_path, '[environment]\nmap = "builtin:uffizi"\n[camera]\nfov_deg = -3\n'
-                                 '[[objects]]\nshape = "sphere"\nmaterial = { type = "diffuse", kd = [0.5, 0.5, 0.5] }\n')
+    path = write_scene(tmp_path, '[environment]\nmap = "builtin:uffizi"\n[camera]\nfov_deg = -3\n[[objects]]\n'
+                                 'shape = "sphere"\nmaterial = { type = "diffuse", kd = [0.5, 0.5, 0.5] }\n')
     with pytest.raises(SceneError, match=r": camera.fov_deg = -3: must be ") as err:
         scenes.load(str(path))
     assert ": override " not in str(err.value)
