@@ -834,13 +834,15 @@ def _override_naming(named_key: str, overrides: dict[str, Any]) -> str | None:
 
 
 def _override_value_error(exc: SceneError, where: str, overrides: dict[str, Any]) -> SceneError:
-    """A value error of a loaded (valid) scene's overrides, `{where}: KEY = VALUE: must be ...`, named as the
-    override was typed (`{where}: override camera.width = -8: ...`), so that nobody looks for the value in the
-    file; an error about a key no override names (a limit between two keys) as it was."""
+    """A value error of a loaded (valid) scene's overrides, `{where}: KEY = VALUE: why`, named as the override was
+    typed (`{where}: override camera.width = -8: ...`), so that nobody looks for the value in the file. An error
+    about a key no override names, or about two keys together (`KEY = VALUE with OTHER = VALUE: why`, either of
+    which may be the file's), is left as it was."""
     head = f"{where}: "
     text = str(exc)
     key, sep, rest = text[len(head):].partition(" = ")
-    typed = _override_naming(key, overrides) if type(exc) is SceneError and text.startswith(head) and sep else None
+    one_key = sep and " with " not in rest.partition(": ")[0]
+    typed = _override_naming(key, overrides) if type(exc) is SceneError and text.startswith(head) and one_key else None
     return exc if typed is None else SceneError(f"{head}override {typed} = {rest}")
 
 

@@ -190,8 +190,8 @@ def test_every_builtin_scene_loads():
 
 @pytest.mark.parametrize("shape", ["pawn", "rook"])
 def test_a_packaged_model_has_no_resolution_to_choose(shape):
-    # the resolution is an override here, named as typed (objects.0.resolution); in a file, objects[0].resolution
-    with pytest.raises(SceneError, match=rf"override objects.0.resolution = 8 with objects\[0\].shape = '{shape}'"):
+    # an error about two keys is named as the file would name them, whichever of them an override set
+    with pytest.raises(SceneError, match=rf"objects\[0\].resolution = 8 with objects\[0\].shape = '{shape}'"):
         scenes.load("builtin:sphere-diffuse").with_overrides({"objects.0.shape": shape, "objects.0.resolution": 8})
 
 
