@@ -71,10 +71,12 @@ PAPER_MATERIALS = frozenset(materials.PAPER_TYPES)  # (value -> checked value or
 
 
 def number(lo: float, hi: float, lo_open: bool = False, hi_open: bool = False, integer: bool = False) -> Check:
-    """A number (an integer with `integer`) in [lo, hi], the ends open with lo_open / hi_open."""
+    """A number (an integer with `integer`) in [lo, hi], the ends open with lo_open / hi_open. An integer's
+    bounds are written out whole (2^24 as 16777216, which `:g` writes 1.67772e+07: not the bound)."""
     lb = "(" if lo_open else "["
     rb = ")" if hi_open else "]"
-    text = f"{'an integer' if integer else 'a number'} in {lb}{lo:g}, {hi:g}{rb}"
+    ends = f"{int(lo)}, {int(hi)}" if integer else f"{lo:g}, {hi:g}"
+    text = f"{'an integer' if integer else 'a number'} in {lb}{ends}{rb}"
 
     def check(v):
         if isinstance(v, bool) or not isinstance(v, (int, float)) or (integer and not isinstance(v, int)):

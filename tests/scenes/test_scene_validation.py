@@ -31,7 +31,7 @@ BAD = [
     ("[realtime]\nbase_size = 64\nface_size = 128", "realtime.face_size", "base_size"),
     ("[realtime]\nlod_mapping = \"linear\"", "realtime.lod_mapping", '"paper"'),
     ("[realtime]\nsh_window = \"gauss\"", "realtime.sh_window", '"lanczos"'),
-    ("[reference]\nspp = 0", "reference.spp", "integer"),
+    ("[reference]\nspp = 0", "reference.spp", "an integer in [1, 16777216]"),  # 2^24 written whole, not 1.67772e+07
     ("[reference]\nspp = 1.5", "reference.spp", "integer"),
     ("[reference]\nintegrator = \"bdpt\"", "reference.integrator", '"path"'),
     ("[reference]\nmodel = \"ggx\"", "reference.model", '"physical"'),
