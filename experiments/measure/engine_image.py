@@ -28,7 +28,6 @@ problem with the file is a `scenes.InputError` naming it.
 from __future__ import annotations
 
 import math
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,7 +37,7 @@ import numpy as np
 import groundtruth
 from engines import engine_timings, linear_image
 from experiments.measure import comparison, metrics
-from experiments.measure.pair import CLIPPED_SHARE, ClippedComparison, Measurement, clipped_words, measure_pair
+from experiments.measure.pair import Measurement, clipped_share, measure_pair
 from scenes import InputError
 from scenes.model import tone_operators
 from scenes.model.render import Render
@@ -230,9 +229,7 @@ def measure_display_pair(image: EngineImage, reference: Render, scene, *,
     b = display_reference(reference.rgb, image, scene)
     covered = metrics.common_mask(np.ones(a.shape[:2], bool), reference.mask)
     empty = metrics.no_signal(b, covered)
-    clipped = None if empty else metrics.white_share(b, covered)
-    if clipped is not None and clipped > CLIPPED_SHARE:
-        warnings.warn(f"{scene.name}: {clipped_words(clipped)}", ClippedComparison, stacklevel=2)
+    clipped = clipped_share(scene, b, covered, empty)
     mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:
         b2, noise_mask = None, mask

@@ -89,6 +89,16 @@ def clipped_words(share: float) -> str:
             f"until most of the object is below white")
 
 
+def clipped_share(scene, reference: np.ndarray, covered: np.ndarray, empty: str | None) -> float | None:
+    """`metrics.white_share` of a comparison's reference (display values) over `covered`, None for an empty
+    comparison; a `ClippedComparison` warning where it passes `CLIPPED_SHARE`. Both display spaces measure it so
+    (`measure_pair`, engine_image.measure_display_pair)."""
+    share = None if empty else metrics.white_share(reference, covered)
+    if share is not None and share > CLIPPED_SHARE:
+        warnings.warn(f"{scene.name}: {clipped_words(share)}", ClippedComparison, stacklevel=3)
+    return share
+
+
 @dataclass(frozen=True)
 class Measurement:
     """What `measure_pair` computed for one (test, reference) pair.
@@ -197,9 +207,7 @@ def measure_pair(test: Render, reference: Render, scene, *, second_reference: Re
         # user text in the message: the CLI prints every warning through text.one_line
         warnings.warn(f"{scene.name}: the compared pixels carry no signal: {empty}; its metrics are null",
                       EmptyComparison, stacklevel=2)
-    clipped = None if empty else metrics.white_share(b, covered)
-    if clipped is not None and clipped > CLIPPED_SHARE:
-        warnings.warn(f"{scene.name}: {clipped_words(clipped)}", ClippedComparison, stacklevel=2)
+    clipped = clipped_share(scene, b, covered, empty)
     # an empty comparison measures over no pixel, so every metric is None (metrics' convention)
     mask = np.zeros_like(covered) if empty else covered
     if second_reference is None:

@@ -274,8 +274,13 @@ class Scene:
                 raise
             named = "" if exc.key == key else f"{exc.key}: "
             raise SceneError(f"{self.path}: override {key}: {named}unknown key; allowed: {exc.allowed}") from None
-        except SceneError as exc:
-            raise _override_value_error(exc, self.path, overrides) from None
+        except BadValue as exc:
+            # a value the overrides gave (the scene was valid before them): named as typed, so that nobody looks
+            # for it in the file
+            typed = _override_naming(exc.key, overrides)
+            if typed is None:
+                raise
+            raise BadValue(self.path, f"override {typed}", exc.detail) from None
 
     def _base_dir(self) -> Path:
         return Path.cwd() if self.path.startswith(BUILTIN_PREFIX) or not self.path else Path(self.path).parent
@@ -550,6 +555,19 @@ def _check_depth(tree: Any, where: str) -> None:
                               depth + 1))
 
 
+class BadValue(SceneError):
+    """A value the scene format refuses for one key: `key` as the file names it (`camera.width`,
+    `objects[0].resolution`), `detail` what follows `KEY = ` (the value and why). An error about two keys together
+    stays a plain SceneError: either key may be the file's."""
+
+    def __init__(self, where: str, key: str, detail: str) -> None:
+        self.where, self.key, self.detail = where, key, detail
+        super().__init__(f"{where}: {key} = {detail}")
+
+    def __reduce__(self):  # pickled whole (a Dask worker's error reaches the driver)
+        return BadValue, (self.where, self.key, self.detail)
+
+
 class UnknownKey(SceneError):
     """A key the scene format does not have; `key` as the file names it (`camera.fovv`, `objects[0].shapee`)."""
 
@@ -566,7 +584,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
     """Validate a raw TOML tree. Relative paths resolve against `base_dir`."""
 
     def fail(key: str, value: Any, allowed: str) -> SceneError:
-        return SceneError(f"{where}: {key} = {short_repr(value)}: must be {allowed}")
+        return BadValue(where, key, f"{short_repr(value)}: must be {allowed}")
 
     if not isinstance(tree, dict):
         raise SceneError(f"{where}: the scene must be a TOML table")
@@ -610,7 +628,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
         try:
             resolved = environments.resolve_params(env_map[len(BUILTIN_PREFIX):], params)
         except SceneError as exc:
-            raise SceneError(f"{where}: environment.map = {short_repr(env_map)}: {exc}") from None
+            raise BadValue(where, "environment.map", f"{short_repr(env_map)}: {exc}") from None
         env["params"] = tuple(sorted(resolved.items()))
     else:
         if params:
@@ -621,7 +639,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
             raise fail("environment.map", env_map, "a builtin name or an .exr, .hdr or .pfm file")
         problem = input_problem(p)
         if problem:
-            raise SceneError(f"{where}: environment.map = {short_repr(env_map)}: {problem} ({p})")
+            raise BadValue(where, "environment.map", f"{short_repr(env_map)}: {problem} ({p})")
         env["map"] = str(p)
     environment = Environment(**env)
 
@@ -632,9 +650,9 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
                          f"{cam.width * cam.height} pixels: must be at most {MAX_PIXELS} (8192 x 8192)")
     view = np.subtract(cam.target, cam.origin)
     if np.linalg.norm(view) < 1e-9:
-        raise SceneError(f"{where}: camera.target = {list(cam.target)}: must differ from camera.origin")
+        raise BadValue(where, "camera.target", f"{list(cam.target)}: must differ from camera.origin")
     if np.linalg.norm(np.cross(view / np.linalg.norm(view), cam.up)) < 1e-6:
-        raise SceneError(f"{where}: camera.up = {list(cam.up)}: must not be zero or parallel to the view direction")
+        raise BadValue(where, "camera.up", f"{list(cam.up)}: must not be zero or parallel to the view direction")
 
     # objects
     # no default object: a scene without [[objects]] would render something the file never names
@@ -665,9 +683,9 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
                              f"{', '.join(sorted(set(meshes.BUILTIN_MESHES) - meshes.PACKAGED_MESHES))}")
         if shape in meshes.BUILTIN_MESHES and meshes.builtin_triangles(shape, obj.get("resolution")) > \
                 meshes.MAX_TRIANGLES:
-            raise SceneError(f"{where}: {prefix}.resolution = {obj.get('resolution')}: a {shape} of "
-                             f"{meshes.builtin_triangles(shape, obj.get('resolution'))} triangles; must give at "
-                             f"most {meshes.MAX_TRIANGLES}")
+            raise BadValue(where, f"{prefix}.resolution", f"{obj.get('resolution')}: a {shape} of "
+                           f"{meshes.builtin_triangles(shape, obj.get('resolution'))} triangles; must give at most "
+                           f"{meshes.MAX_TRIANGLES}")
         if shape not in meshes.BUILTIN_MESHES:
             p = Path(shape)
             p = p if p.is_absolute() else base_dir / p
@@ -676,7 +694,7 @@ def from_dict(tree: dict, where: str, base_dir: Path, name_default: str = "scene
                            f"({', '.join(meshes.MESH_FORMATS)})")
             problem = input_problem(p)
             if problem:
-                raise SceneError(f"{where}: {prefix}.shape = {short_repr(shape)}: {problem} ({p})")
+                raise BadValue(where, f"{prefix}.shape", f"{short_repr(shape)}: {problem} ({p})")
             obj["shape"] = str(p)
         if "crease_deg" in obj and obj.get("normals", "auto") != "smooth":
             raise SceneError(f"{where}: {prefix}.crease_deg = {obj['crease_deg']} with {prefix}.normals = "
@@ -786,7 +804,7 @@ def _realtime(raw: Any, where: str, section) -> Realtime:
     technique_registry.validate(rt, {**flat, **given_tables}, where)
     for key in ("diffuse", "glossy", "occlusion", "interreflection", "parameterization"):
         if (key, getattr(rt, key)) in NOT_IMPLEMENTED:
-            raise SceneError(f"{where}: realtime.{key} = {getattr(rt, key)!r}: not implemented yet")
+            raise BadValue(where, f"realtime.{key}", f"{getattr(rt, key)!r}: not implemented yet")
     return rt
 
 
@@ -831,19 +849,6 @@ def _override_naming(named_key: str, overrides: dict[str, Any]) -> str | None:
                                             for p, n in zip(parts, named, strict=False)):
             return key
     return None
-
-
-def _override_value_error(exc: SceneError, where: str, overrides: dict[str, Any]) -> SceneError:
-    """A value error of a loaded (valid) scene's overrides, `{where}: KEY = VALUE: why`, named as the override was
-    typed (`{where}: override camera.width = -8: ...`), so that nobody looks for the value in the file. An error
-    about a key no override names, or about two keys together (`KEY = VALUE with OTHER = VALUE: why`, either of
-    which may be the file's), is left as it was."""
-    head = f"{where}: "
-    text = str(exc)
-    key, sep, rest = text[len(head):].partition(" = ")
-    one_key = sep and " with " not in rest.partition(": ")[0]
-    typed = _override_naming(key, overrides) if type(exc) is SceneError and text.startswith(head) and one_key else None
-    return exc if typed is None else SceneError(f"{head}override {typed} = {rest}")
 
 
 def _set_dotted(tree: dict, parts: list[str], value: Any, key: str, where: str) -> None:

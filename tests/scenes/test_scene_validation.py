@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import pickle
+
 import pytest
 
 import scenes
 from scenes import SceneError
+from scenes.model import scene as scene_model
 from tests.helpers import write_scene
 
 BASE = """
@@ -239,3 +242,14 @@ def test_an_unknown_object_or_section_key_of_an_override_is_the_overrides(overri
         scenes.load("builtin:sphere-diffuse").with_overrides(override)
     assert str(err.value).startswith(f"builtin:sphere-diffuse: {words}")
 
+
+
+def test_a_bad_value_keeps_its_key_through_pickling():
+    """A Dask worker's scene error reaches the driver pickled: the key the overrides are matched against survives,
+    and so does the message. Control: a plain SceneError carries no key."""
+    with pytest.raises(scene_model.BadValue) as err:
+        scenes.load("builtin:sphere-diffuse").with_overrides({"reference.spp": 0})
+    back = pickle.loads(pickle.dumps(err.value))
+    assert isinstance(back, scene_model.BadValue) and str(back) == str(err.value)
+    assert back.key == "override reference.spp" and back.detail.startswith("0: must be an integer in [1, ")
+    assert not hasattr(SceneError("x"), "key")
